@@ -1,0 +1,68 @@
+// The SegmentSampler concept: draws one segment conditioned on a technique parameter t and
+// evaluates the conditional density p(s | t) of *any* segment (SPEC 1.6; MMIS needs the
+// density of segments the sampler did not draw, N39-N42).
+// Customization points: Smp::Technique, Smp::is_dirac, sample(scene, t, rng), pdf(scene, t, s).
+#pragma once
+
+#include "segpath/core/rng.hpp"
+#include "segpath/core/segment.hpp"
+#include "segpath/core/spectrum.hpp"
+
+#include <concepts>
+#include <optional>
+
+namespace segpath {
+
+/// A drawn segment with its conditional density and the integrand factor it carries.
+/// `pdf` is in the product measure of its two endpoints (area for surface points, discrete
+/// for point endpoints, solid angle at direction endpoints). `factor` is the part of (N17)
+/// this segment brings: W_rho G(s_1) for a sensor-start segment, K f_r G(s') for a
+/// successor, L_e G for a light-start segment, G(s) for an unconditional sampler. Where
+/// the sample went through a Dirac delta (specular BSDF, Dirac kernel, pinhole), factor and
+/// pdf are the coefficients of the same delta.
+template <class S>
+struct SegmentSample {
+  using Scalar = spectrum_scalar_t<S>;
+  Segment<Scalar> segment;
+  S factor{};
+  Scalar pdf = 0;
+  bool delta = false;  ///< a specular (delta) BSDF lobe was sampled
+};
+
+namespace detail {
+template <class Smp>
+concept HasTechnique = requires { typename Smp::Technique; };
+template <class Smp>
+concept HasSamplerIsDirac = requires {
+  { Smp::is_dirac } -> std::convertible_to<bool>;
+};
+template <class Smp, class Scn>
+concept HasSegmentSample = requires(const Smp& smp, const Scn& scene,
+                                    const typename Smp::Technique& t, Pcg32& rng) {
+  { smp.sample(scene, t, rng) } ->
+      std::same_as<std::optional<SegmentSample<typename Scn::Spectrum>>>;
+};
+template <class Smp, class Scn>
+concept HasSegmentPdf = requires(const Smp& smp, const Scn& scene,
+                                 const typename Smp::Technique& t,
+                                 const Segment<typename Scn::Scalar>& s) {
+  { smp.pdf(scene, t, s) } -> std::convertible_to<typename Scn::Scalar>;
+};
+}  // namespace detail
+
+/// A segment sampler for scenes of type Scn. Syntactic requirements:
+///  1. `Smp::Technique` is the technique parameter t (the conditioning data: a pixel, a
+///     previous segment, a pair of subpath ends; an empty struct for unconditional ones);
+///  2. `Smp::is_dirac` says whether the sampler's density has a Dirac component (then
+///     pdf of a segment it did not draw itself is 0);
+///  3. `smp.sample(scene, t, rng)` returns std::optional<SegmentSample<Scn::Spectrum>>;
+///  4. `smp.pdf(scene, t, s)` returns p(s | t) for any segment s.
+/// Semantic requirements:
+///  5. pdf(scene, t, sample(scene, t, rng)->segment) equals the sample's pdf;
+///  6. p(. | t) integrates to 1 over segments, or to the probability that sample succeeds;
+///  7. a returned sample has pdf > 0 and finite endpoints; failures return nullopt.
+template <class Smp, class Scn>
+concept SegmentSampler = detail::HasTechnique<Smp> && detail::HasSamplerIsDirac<Smp> &&
+                         detail::HasSegmentSample<Smp, Scn> && detail::HasSegmentPdf<Smp, Scn>;
+
+}  // namespace segpath

@@ -1,0 +1,73 @@
+// Spectra: an RGB triple, and the scalar types as one-channel spectra (the analytic test
+// scenes use them). Estimators use only the operations the Spectrum concept names.
+#pragma once
+
+#include "segpath/core/vec.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace segpath {
+
+template <Real T>
+struct Rgb {
+  T r = 0, g = 0, b = 0;
+
+  constexpr Rgb() noexcept = default;
+  constexpr explicit Rgb(T v) noexcept : r(v), g(v), b(v) {}
+  constexpr Rgb(T r_, T g_, T b_) noexcept : r(r_), g(g_), b(b_) {}
+
+  constexpr Rgb& operator+=(const Rgb& o) noexcept { r += o.r; g += o.g; b += o.b; return *this; }
+  constexpr Rgb& operator*=(const Rgb& o) noexcept { r *= o.r; g *= o.g; b *= o.b; return *this; }
+  constexpr Rgb& operator*=(T s) noexcept { r *= s; g *= s; b *= s; return *this; }
+  constexpr Rgb& operator/=(T s) noexcept { return *this *= (T(1) / s); }
+  friend constexpr Rgb operator+(Rgb a, const Rgb& b) noexcept { return a += b; }
+  friend constexpr Rgb operator-(const Rgb& a, const Rgb& b) noexcept { return {a.r - b.r, a.g - b.g, a.b - b.b}; }
+  friend constexpr Rgb operator*(Rgb a, const Rgb& b) noexcept { return a *= b; }
+  friend constexpr Rgb operator*(Rgb a, T s) noexcept { return a *= s; }
+  friend constexpr Rgb operator*(T s, Rgb a) noexcept { return a *= s; }
+  friend constexpr Rgb operator/(Rgb a, T s) noexcept { return a /= s; }
+  friend constexpr bool operator==(const Rgb&, const Rgb&) noexcept = default;
+
+  [[nodiscard]] constexpr T operator[](int i) const noexcept { return i == 0 ? r : (i == 1 ? g : b); }
+};
+
+template <Real T> [[nodiscard]] constexpr T max_component(const Rgb<T>& c) noexcept { return std::max({c.r, c.g, c.b}); }
+template <Real T> [[nodiscard]] constexpr T average(const Rgb<T>& c) noexcept { return (c.r + c.g + c.b) / T(3); }
+template <Real T> [[nodiscard]] constexpr bool is_finite(const Rgb<T>& c) noexcept {
+  return std::isfinite(c.r) && std::isfinite(c.g) && std::isfinite(c.b);
+}
+template <Real T> [[nodiscard]] constexpr bool is_black(const Rgb<T>& c) noexcept { return c.r == 0 && c.g == 0 && c.b == 0; }
+
+template <Real T> [[nodiscard]] constexpr T max_component(T v) noexcept { return v; }
+template <Real T> [[nodiscard]] constexpr T average(T v) noexcept { return v; }
+template <Real T> [[nodiscard]] constexpr bool is_finite(T v) noexcept { return std::isfinite(v); }
+template <Real T> [[nodiscard]] constexpr bool is_black(T v) noexcept { return v == 0; }
+
+/// The scalar type of a spectrum: T for Rgb<T>, the type itself for a scalar.
+template <class S> struct spectrum_scalar { using type = S; };
+template <Real T> struct spectrum_scalar<Rgb<T>> { using type = T; };
+template <class S> using spectrum_scalar_t = typename spectrum_scalar<S>::type;
+
+/// What estimators need of a radiance or throughput value. Rgb<T> and the floating-point
+/// types model it.
+///  1. constructible from a scalar (0 is black), closed under +, * (per channel),
+///     * and / by its scalar;
+///  2. max_component, average, is_finite and is_black found by overload resolution in
+///     namespace segpath (add overloads there for your own type).
+template <class S>
+concept Spectrum = std::regular<S> && Real<spectrum_scalar_t<S>> &&
+    requires(S a, S b, spectrum_scalar_t<S> t) {
+      S(t);
+      { a + b } -> std::convertible_to<S>;
+      { a * b } -> std::convertible_to<S>;
+      { a * t } -> std::convertible_to<S>;
+      { a / t } -> std::convertible_to<S>;
+      { a += b };
+      { segpath::max_component(a) } -> std::convertible_to<spectrum_scalar_t<S>>;
+      { segpath::average(a) } -> std::convertible_to<spectrum_scalar_t<S>>;
+      { segpath::is_finite(a) } -> std::convertible_to<bool>;
+      { segpath::is_black(a) } -> std::convertible_to<bool>;
+    };
+
+}  // namespace segpath

@@ -1,0 +1,48 @@
+// Segment endpoints: points of the scene manifold M, plus the point-like and
+// infinitely distant endpoints that pinhole cameras, point lights and distant lights need.
+#pragma once
+
+#include "segpath/core/frame.hpp"
+
+#include <cstdint>
+#include <limits>
+
+namespace segpath {
+
+inline constexpr std::uint32_t invalid_id = std::numeric_limits<std::uint32_t>::max();
+
+/// The measure an endpoint is integrated in. It decides which factors the geometry term
+/// (core/geometry.hpp) carries at that end:
+///  - surface:   area measure on M; G has |n . s| at this end and 1/d^2 overall.
+///  - point:     a delta position (pinhole, point light); no cosine at this end, the
+///               sensor or emitter carries it. Its density is a discrete probability.
+///  - direction: a point at infinity (distant light, environment); `position` is unused,
+///               no cosine at this end and no 1/d^2; densities at the other end are in
+///               solid angle.
+enum class PointKind : std::uint8_t { surface, point, direction };
+
+/// A segment endpoint (SPEC 1.1). `normal` is the geometric normal: the side it points to
+/// is the front of one-sided surfaces. `shading` is the frame BSDFs are evaluated in.
+template <Real T>
+struct SurfacePoint {
+  Vec3<T> position{};
+  Vec3<T> normal{0, 0, 1};
+  Frame<T> shading{};
+  std::uint32_t primitive_id = invalid_id;
+  std::uint32_t material_id = invalid_id;
+  PointKind kind = PointKind::surface;
+
+  /// A surface point whose shading frame is built from the geometric normal.
+  [[nodiscard]] static SurfacePoint on_surface(const Vec3<T>& p, const Vec3<T>& n,
+                                               std::uint32_t primitive = invalid_id,
+                                               std::uint32_t material = invalid_id) noexcept {
+    return SurfacePoint{p, n, Frame<T>::from_normal(n), primitive, material, PointKind::surface};
+  }
+  /// A delta position without a surface (pinhole, point light); `n` is only a reference axis.
+  [[nodiscard]] static SurfacePoint at_point(const Vec3<T>& p,
+                                             const Vec3<T>& n = Vec3<T>(0, 0, 1)) noexcept {
+    return SurfacePoint{p, n, Frame<T>::from_normal(n), invalid_id, invalid_id, PointKind::point};
+  }
+};
+
+}  // namespace segpath

@@ -1,0 +1,71 @@
+// The uniform disk kernel (N19) with the disk support of SPEC 1.2: the points of M within
+// radius r of y whose normal agrees with n_y; |K(y)| = pi r^2 (VCM / photon mapping style).
+#pragma once
+
+#include "segpath/concepts/kernel.hpp"
+#include "segpath/core/frame.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+namespace segpath {
+
+template <Real T>
+class DiskKernel {
+ public:
+  using Scalar = T;
+  static constexpr bool is_dirac = false;
+
+  /// `radius` > 0 and finite; `min_normal_cosine` in [-1, 1]: x' is in the support only if
+  /// n_x' . n_y >= min_normal_cosine.
+  explicit DiskKernel(T radius, T min_normal_cosine = T(0.5))
+      : radius_(radius), min_normal_cosine_(min_normal_cosine) {
+    if (!(radius > T(0)) || !std::isfinite(radius))
+      throw std::invalid_argument("segpath::DiskKernel: radius must be finite and > 0, got " +
+                                  std::to_string(radius));
+    if (!(min_normal_cosine >= T(-1) && min_normal_cosine <= T(1)))
+      throw std::invalid_argument(
+          "segpath::DiskKernel: min_normal_cosine must lie in [-1, 1], got " +
+          std::to_string(min_normal_cosine));
+    inv_area_ = T(1) / (pi<T> * radius * radius);
+  }
+
+  [[nodiscard]] T radius() const noexcept { return radius_; }
+  [[nodiscard]] T min_normal_cosine() const noexcept { return min_normal_cosine_; }
+
+  /// 1[x' in K(y)] / (pi r^2) (N19).
+  [[nodiscard]] T eval(const KernelQuery<T>& q) const noexcept {
+    return in_support(q.from.y, q.to.x) ? inv_area_ : T(0);
+  }
+
+  /// x' uniform in the disk of radius r in the tangent plane of y (exact on planar
+  /// neighbourhoods; elsewhere the locally-planar approximation of VCM). The drawn point
+  /// keeps y's normal, frame and ids.
+  [[nodiscard]] std::optional<KernelSample<T>> sample(const KernelSampleQuery<T>& q) const noexcept {
+    const SurfacePoint<T>& y = q.from.y;
+    if (y.kind != PointKind::surface) return std::nullopt;
+    const T rho = radius_ * std::sqrt(q.u.x);
+    const T phi = T(2) * pi<T> * q.u.y;
+    const Frame<T> frame = Frame<T>::from_normal(y.normal);
+    SurfacePoint<T> x = y;
+    x.position = y.position + frame.tangent * (rho * std::cos(phi)) + frame.bitangent * (rho * std::sin(phi));
+    return KernelSample<T>{x, inv_area_};
+  }
+
+  [[nodiscard]] T pdf(const KernelQuery<T>& q) const noexcept { return eval(q); }
+  [[nodiscard]] T support_radius(const KernelSupportQuery<T>&) const noexcept { return radius_; }
+
+  [[nodiscard]] bool in_support(const SurfacePoint<T>& y, const SurfacePoint<T>& x) const noexcept {
+    if (y.kind != PointKind::surface || x.kind != PointKind::surface) return false;
+    const Vec3<T> d = x.position - y.position;
+    return glm::dot(d, d) < radius_ * radius_ && glm::dot(x.normal, y.normal) >= min_normal_cosine_;
+  }
+
+ private:
+  T radius_;
+  T min_normal_cosine_;
+  T inv_area_ = 0;
+};
+
+}  // namespace segpath
