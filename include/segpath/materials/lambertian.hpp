@@ -1,0 +1,47 @@
+// The Lambertian BRDF f_r = albedo / pi, one-sided about the geometric normal.
+#pragma once
+
+#include "segpath/concepts/bsdf.hpp"
+#include "segpath/core/warp.hpp"
+
+namespace segpath {
+
+/// Below this cosine with the geometric normal a direction counts as behind a one-sided
+/// surface (the Cornell-box convention, cornell-boxes.md).
+template <Real T> inline constexpr T one_sided_epsilon = T(1e-6);
+
+/// Diffuse reflection. Both directions must lie above the geometric normal; directions are
+/// sampled by cosine about the shading normal.
+template <Spectrum S>
+struct Lambertian {
+  using Scalar = spectrum_scalar_t<S>;
+  S albedo{};
+
+  [[nodiscard]] S eval(const BsdfQuery<Scalar>& q) const noexcept {
+    if (!both_above(q.point, q.to_sensor, q.to_light)) return S(Scalar(0));
+    return albedo * inv_pi<Scalar>;
+  }
+
+  [[nodiscard]] std::optional<BsdfSample<S>> sample(const BsdfSampleQuery<Scalar>& q) const noexcept {
+    if (glm::dot(q.fixed, q.point.normal) <= one_sided_epsilon<Scalar>) return std::nullopt;
+    const Vec3<Scalar> local = square_to_cosine_hemisphere(q.u);
+    const Vec3<Scalar> direction = q.point.shading.to_world(local);
+    const Scalar pdf = square_to_cosine_hemisphere_pdf(local);
+    if (!(pdf > Scalar(0)) || glm::dot(direction, q.point.normal) <= one_sided_epsilon<Scalar>)
+      return std::nullopt;
+    return BsdfSample<S>{direction, albedo * inv_pi<Scalar>, pdf, false};
+  }
+
+  [[nodiscard]] Scalar pdf(const BsdfQuery<Scalar>& q) const noexcept {
+    if (!both_above(q.point, q.to_sensor, q.to_light)) return Scalar(0);
+    const Vec3<Scalar>& free = q.mode == Transport::radiance ? q.to_light : q.to_sensor;
+    return square_to_cosine_hemisphere_pdf(q.point.shading.to_local(free));
+  }
+
+ private:
+  static bool both_above(const SurfacePoint<Scalar>& p, const Vec3<Scalar>& a, const Vec3<Scalar>& b) noexcept {
+    return glm::dot(a, p.normal) > one_sided_epsilon<Scalar> && glm::dot(b, p.normal) > one_sided_epsilon<Scalar>;
+  }
+};
+
+}  // namespace segpath

@@ -1,0 +1,54 @@
+// The sequential sensor-start sampler (N29): p_W(s_1) proportional to W_rho(s_1) G(s_1).
+// x_1 and the direction come from the sensor; y_1 is the first surface hit.
+#pragma once
+
+#include "segpath/concepts/sampler.hpp"
+#include "segpath/concepts/scene.hpp"
+#include "segpath/core/geometry.hpp"
+
+#include <cstdint>
+#include <optional>
+
+namespace segpath {
+
+template <Scene Scn>
+class SensorStartSampler {
+ public:
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  /// The technique parameter: the pixel whose importance is sampled.
+  struct Technique {
+    std::uint32_t pixel = 0;
+  };
+  /// Pinhole cameras and probes are deltas in position (and probes in direction).
+  static constexpr bool is_dirac = true;
+
+  /// Draws s_1 with pdf = p_pos(x_1) p_w(s^) |n_y . s^| / |x - y|^2 and factor W G(s_1)
+  /// (visibility holds by construction: y_1 is the first hit).
+  template <UniformSource<T> R>
+  [[nodiscard]] std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t, R& rng) const noexcept {
+    const Vec2<T> u_position = rng.template uniform2<T>();
+    const Vec2<T> u_direction = rng.template uniform2<T>();
+    const auto ray = scene.sensor().sample_ray(SensorSampleQuery<T>{t.pixel, u_position, u_direction});
+    if (!ray) return std::nullopt;
+    const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{ray->origin.position, ray->direction}});
+    if (!hit) return std::nullopt;
+    SegmentSample<S> out;
+    out.segment = Segment<T>{ray->origin, hit->point};
+    out.pdf = solid_angle_to_area(ray->pdf_position * ray->pdf_direction, ray->origin, hit->point);
+    out.factor = S(ray->importance * geometry_term(out.segment));
+    return out;
+  }
+
+  /// p(s | pixel): zero unless the sensor maps s to this pixel and y is the first hit.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    const SensorQuery<T> query{s.x, s.direction()};
+    const auto response = scene.sensor().importance(query);
+    if (!response || response->pixel != t.pixel) return T(0);
+    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
+    const SensorPdf<T> p = scene.sensor().pdf(query);
+    return solid_angle_to_area(p.position * p.direction, s.x, s.y);
+  }
+};
+
+}  // namespace segpath
