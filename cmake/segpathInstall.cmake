@@ -4,9 +4,10 @@ include(CMakePackageConfigHelpers)
 set(SEGPATH_INSTALL_CMAKEDIR ${CMAKE_INSTALL_DATADIR}/cmake/segpath)
 
 install(TARGETS segpath EXPORT segpathTargets)
-install(DIRECTORY include/segpath DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/include/segpath DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}
+  FILES_MATCHING PATTERN "*.hpp" PATTERN "*.inl")
 install(EXPORT segpathTargets NAMESPACE segpath:: DESTINATION ${SEGPATH_INSTALL_CMAKEDIR})
-configure_package_config_file(cmake/segpathConfig.cmake.in
+configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/segpathConfig.cmake.in
   ${CMAKE_CURRENT_BINARY_DIR}/segpathConfig.cmake
   INSTALL_DESTINATION ${SEGPATH_INSTALL_CMAKEDIR})
 # Header-only: the version file must not pin the consumer's pointer size.

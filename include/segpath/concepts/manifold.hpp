@@ -87,7 +87,7 @@ concept HasVisible = requires(const M& m, const VisibilityQuery<typename M::Scal
 ///  7. sample_area draws uniformly by area: its pdf is 1 / area(); it returns nullopt only
 ///     for inputs it cannot map (never a point with a non-finite position);
 ///  8. intersect returns hits with finite position, unit geometric normal and an
-///     orthonormal shading frame; it does not report the surface the ray starts on;
+///     unit shading normal; it does not report the surface the ray starts on;
 ///  9. visible(a, b) == visible(b, a) and is true exactly when the open segment between
 ///     the two endpoints meets no surface.
 template <class M>

@@ -24,6 +24,7 @@ template <class S>
 struct SegmentSample {
   using Scalar = spectrum_scalar_t<S>;
   Segment<Scalar> segment;
+  Vec3<Scalar> direction{};  ///< unit s^ of `segment`, as the sampler computed it
   S factor{};
   Scalar pdf = 0;
   bool delta = false;  ///< a specular (delta) BSDF lobe was sampled

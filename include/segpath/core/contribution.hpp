@@ -61,6 +61,15 @@ template <Scene Scn>
   return scene.emitter().radiance(EmissionQuery<T>{last.y, -last.direction()});
 }
 
+/// L_e(s_k) for a segment whose unit direction s^ is already known.
+template <Scene Scn>
+[[nodiscard]] SEGPATH_FORCE_INLINE typename Scn::Spectrum emission_factor(
+    const Scn& scene, const Segment<typename Scn::Scalar>& last,
+    const Vec3<typename Scn::Scalar>& direction) noexcept {
+  using T = typename Scn::Scalar;
+  return scene.emitter().radiance(EmissionQuery<T>{last.y, -direction});
+}
+
 /// A pixel index and a value: what a full contribution evaluates to.
 template <class S>
 struct PixelValue {

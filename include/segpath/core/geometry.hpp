@@ -32,6 +32,16 @@ template <Real T>
   return endpoint_cosine(s.x, d) * endpoint_cosine(s.y, d) / d2;
 }
 
+/// G(s) for a segment whose unit direction and length are already known (a ray-traced
+/// segment: the ray direction and hit distance), saving the normalisation.
+template <Real T>
+[[nodiscard]] SEGPATH_FORCE_INLINE T geometry_term(const Segment<T>& s, const Vec3<T>& direction,
+                                                   T distance) noexcept {
+  const T cosines = endpoint_cosine(s.x, direction) * endpoint_cosine(s.y, direction);
+  if (s.x.kind == PointKind::direction || s.y.kind == PointKind::direction) return cosines;
+  return distance > T(0) ? cosines / (distance * distance) : T(0);
+}
+
 /// Converts a solid-angle density at `from` towards `to` into an area density at `to`:
 /// p_A(to) = p_w |n_to . w| / |from - to|^2 (the factor in (N27), (N28), (N31)).
 template <Real T>
@@ -42,6 +52,15 @@ template <Real T>
   const T d2 = glm::dot(delta, delta);
   if (!(d2 > T(0))) return T(0);
   return pdf_solid_angle * endpoint_cosine(to, delta / std::sqrt(d2)) / d2;
+}
+
+/// solid_angle_to_area for a known unit direction from -> to and distance.
+template <Real T>
+[[nodiscard]] SEGPATH_FORCE_INLINE T solid_angle_to_area(T pdf_solid_angle, const SurfacePoint<T>& from,
+                                                         const SurfacePoint<T>& to, const Vec3<T>& direction,
+                                                         T distance) noexcept {
+  if (to.kind == PointKind::direction || from.kind == PointKind::direction) return pdf_solid_angle;
+  return distance > T(0) ? pdf_solid_angle * endpoint_cosine(to, direction) / (distance * distance) : T(0);
 }
 
 /// The inverse of solid_angle_to_area; returns 0 where the conversion is singular.

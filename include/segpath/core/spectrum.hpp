@@ -51,10 +51,13 @@ template <class S> using spectrum_scalar_t = typename spectrum_scalar<S>::type;
 
 /// What estimators need of a radiance or throughput value. Rgb<T> and the floating-point
 /// types model it.
-///  1. constructible from a scalar (0 is black), closed under +, * (per channel),
-///     * and / by its scalar;
-///  2. max_component, average, is_finite and is_black found by overload resolution in
-///     namespace segpath (add overloads there for your own type).
+///  1. a std::regular type, constructible from a scalar (0 is black), closed under +, +=,
+///     * (per channel), * and / by its scalar;
+///  2. max_component, average, is_finite and is_black callable unqualified: the segpath
+///     overloads above, or for your own type overloads in its namespace, found by
+///     argument-dependent lookup (library code calls them unqualified);
+///  3. spectrum_scalar<S>::type names its scalar, float or double (specialize
+///     segpath::spectrum_scalar for your own type).
 template <class S>
 concept Spectrum = std::regular<S> && Real<spectrum_scalar_t<S>> &&
     requires(S a, S b, spectrum_scalar_t<S> t) {
@@ -64,10 +67,10 @@ concept Spectrum = std::regular<S> && Real<spectrum_scalar_t<S>> &&
       { a * t } -> std::convertible_to<S>;
       { a / t } -> std::convertible_to<S>;
       { a += b };
-      { segpath::max_component(a) } -> std::convertible_to<spectrum_scalar_t<S>>;
-      { segpath::average(a) } -> std::convertible_to<spectrum_scalar_t<S>>;
-      { segpath::is_finite(a) } -> std::convertible_to<bool>;
-      { segpath::is_black(a) } -> std::convertible_to<bool>;
+      { max_component(a) } -> std::convertible_to<spectrum_scalar_t<S>>;
+      { average(a) } -> std::convertible_to<spectrum_scalar_t<S>>;
+      { is_finite(a) } -> std::convertible_to<bool>;
+      { is_black(a) } -> std::convertible_to<bool>;
     };
 
 }  // namespace segpath

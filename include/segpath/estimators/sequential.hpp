@@ -55,10 +55,11 @@ class SequentialEstimator {
     }
     S beta = first->factor / first->pdf;
     Segment<T> current = first->segment;
+    Vec3<T> direction = first->direction;
     for (std::size_t length = 1;; ++length) {
-      if (length >= lengths_.min) total += beta * emission_factor(scene, current);
+      if (length >= lengths_.min) total += beta * emission_factor(scene, current, direction);
       if (length == lengths_.max) break;
-      const auto next = next_.sample(scene, {current}, rng);
+      const auto next = next_.sample(scene, {current, direction}, rng);
       if (!next) break;
       if (!(next->pdf > T(0))) {
         sink.drop(DropReason::zero_density);
@@ -67,6 +68,7 @@ class SequentialEstimator {
       beta = beta * (next->factor / next->pdf);
       if (is_black(beta)) break;
       current = next->segment;
+      direction = next->direction;
     }
     if (!is_finite(total)) {
       sink.drop(DropReason::non_finite);

@@ -25,7 +25,7 @@ struct Lambertian {
   [[nodiscard]] std::optional<BsdfSample<S>> sample(const BsdfSampleQuery<Scalar>& q) const noexcept {
     if (glm::dot(q.fixed, q.point.normal) <= one_sided_epsilon<Scalar>) return std::nullopt;
     const Vec3<Scalar> local = square_to_cosine_hemisphere(q.u);
-    const Vec3<Scalar> direction = q.point.shading.to_world(local);
+    const Vec3<Scalar> direction = q.point.shading_frame().to_world(local);
     const Scalar pdf = square_to_cosine_hemisphere_pdf(local);
     if (!(pdf > Scalar(0)) || glm::dot(direction, q.point.normal) <= one_sided_epsilon<Scalar>)
       return std::nullopt;
@@ -35,7 +35,8 @@ struct Lambertian {
   [[nodiscard]] Scalar pdf(const BsdfQuery<Scalar>& q) const noexcept {
     if (!both_above(q.point, q.to_sensor, q.to_light)) return Scalar(0);
     const Vec3<Scalar>& free = q.mode == Transport::radiance ? q.to_light : q.to_sensor;
-    return square_to_cosine_hemisphere_pdf(q.point.shading.to_local(free));
+    const Scalar cosine = glm::dot(free, q.point.shading_normal);
+    return cosine > Scalar(0) ? cosine * inv_pi<Scalar> : Scalar(0);
   }
 
  private:

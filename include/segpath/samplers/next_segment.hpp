@@ -20,9 +20,13 @@ class NextSegmentSampler {
  public:
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
-  /// The technique parameter: the segment s_i being continued.
+  /// The technique parameter: the segment s_i being continued, with its unit direction
+  /// (pass it when known, e.g. from the SegmentSample, to save a normalisation).
   struct Technique {
     const Segment<T>& previous;
+    Vec3<T> direction;
+    Technique(const Segment<T>& s) noexcept : previous(s), direction(s.direction()) {}  // NOLINT: implicit by design
+    Technique(const Segment<T>& s, const Vec3<T>& d) noexcept : previous(s), direction(d) {}
   };
   static constexpr bool is_dirac = K::is_dirac;
 
@@ -45,21 +49,23 @@ class NextSegmentSampler {
       if (!junction || !(junction->pdf > T(0))) return std::nullopt;
     }
     const auto bsdf = scene.bsdf().sample(
-        BsdfSampleQuery<T>{prev.y, -prev.direction(), u_bsdf, u_lobe, Transport::radiance});
+        BsdfSampleQuery<T>{prev.y, -t.direction, u_bsdf, u_lobe, Transport::radiance});
     if (!bsdf || !(bsdf->pdf > T(0))) return std::nullopt;
     const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{junction->point.position, bsdf->direction}});
     if (!hit) return std::nullopt;
 
     SegmentSample<S> out;
     out.segment = Segment<T>{junction->point, hit->point};
+    out.direction = bsdf->direction;
     out.delta = bsdf->delta;
-    const T g = geometry_term(out.segment);
+    const T g = geometry_term(out.segment, bsdf->direction, hit->distance);
     if constexpr (K::is_dirac) {
       out.factor = link_factor(T(1), bsdf->value, g);
     } else {
       out.factor = link_factor(kernel_.eval(KernelQuery<T>{prev, out.segment}), bsdf->value, g);
     }
-    out.pdf = junction->pdf * solid_angle_to_area(bsdf->pdf, junction->point, hit->point);
+    out.pdf = junction->pdf * solid_angle_to_area(bsdf->pdf, junction->point, hit->point, bsdf->direction,
+                                                  hit->distance);
     return out;
   }
 
@@ -69,7 +75,7 @@ class NextSegmentSampler {
     const T p_kernel = kernel_.pdf(KernelQuery<T>{prev, s});
     if (!(p_kernel > T(0))) return T(0);
     const T p_direction = scene.bsdf().pdf(
-        BsdfQuery<T>{prev.y, -prev.direction(), s.direction(), Transport::radiance});
+        BsdfQuery<T>{prev.y, -t.direction, s.direction(), Transport::radiance});
     if (!(p_direction > T(0))) return T(0);
     if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
     return p_kernel * solid_angle_to_area(p_direction, s.x, s.y);

@@ -35,8 +35,10 @@ class SensorStartSampler {
     if (!hit) return std::nullopt;
     SegmentSample<S> out;
     out.segment = Segment<T>{ray->origin, hit->point};
-    out.pdf = solid_angle_to_area(ray->pdf_position * ray->pdf_direction, ray->origin, hit->point);
-    out.factor = S(ray->importance * geometry_term(out.segment));
+    out.direction = ray->direction;
+    out.pdf = solid_angle_to_area(ray->pdf_position * ray->pdf_direction, ray->origin, hit->point, ray->direction,
+                                  hit->distance);
+    out.factor = S(ray->importance * geometry_term(out.segment, ray->direction, hit->distance));
     return out;
   }
 

@@ -111,7 +111,7 @@ class SphereInterior {
       const Vec3<T> local = square_to_cosine_hemisphere(q.u_direction);
       const T pdf_dir = square_to_cosine_hemisphere_pdf(local);
       if (!(pdf_dir > T(0))) return std::nullopt;
-      return EmissionSample<T>{y, y.shading.to_world(local), s_->emission_at(y.position), T(1) / s_->area(), pdf_dir};
+      return EmissionSample<T>{y, y.shading_frame().to_world(local), s_->emission_at(y.position), T(1) / s_->area(), pdf_dir};
     }
     [[nodiscard]] EmissionPdf<T> pdf_emission(const EmissionPdfQuery<T>& q) const noexcept {
       const T cosine = glm::dot(q.direction, q.point.normal);
