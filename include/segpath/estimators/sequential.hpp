@@ -12,6 +12,8 @@
 #include "segpath/samplers/sensor_start.hpp"
 
 #include <cstddef>
+#include <new>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -42,33 +44,27 @@ class SequentialEstimator {
   /// (N35) incrementally: beta_k = prod_{i<=k} factor_i / pdf_i = [W G prod K f G] / p_S,
   /// and the estimate is sum_k beta_k L_e(s_k).
   template <UniformSource<T> R, ContributionSink<S> Sink>
-  void estimate(const Scn& scene, const EstimateQuery& q, R& rng, Sink& sink) const noexcept {
+  SEGPATH_FORCE_INLINE void estimate(const Scn& scene, const EstimateQuery& q, R& rng, Sink& sink) const noexcept {
+    using Sample = std::optional<SegmentSample<S>>;
     S total = S(T(0));
-    const auto first = first_.sample(scene, {q.pixel}, rng);
-    if (!first) {
+    // Two slots, alternating: each sample is constructed in place (guaranteed copy elision of
+    // the returned prvalue), and the technique of the next draw refers to the other slot.
+    Sample slots[2];
+    ::new (static_cast<void*>(&slots[0])) Sample(first_.sample(scene, {q.pixel}, rng));
+    if (!slots[0]) {
       sink.add(q.pixel, total);
       return;
     }
-    if (!(first->pdf > T(0))) {
-      sink.drop(DropReason::zero_density);
-      return;
-    }
-    S beta = first->factor / first->pdf;
-    Segment<T> current = first->segment;
-    Vec3<T> direction = first->direction;
-    for (std::size_t length = 1;; ++length) {
-      if (length >= lengths_.min) total += beta * emission_factor(scene, current, direction);
+    S beta = slots[0]->weight;
+    for (std::size_t length = 1, current = 0;; ++length, current ^= 1u) {
+      const SegmentSample<S>& s = *slots[current];
+      if (length >= lengths_.min) total += beta * emission_factor(scene, s.segment, s.direction);
       if (length == lengths_.max) break;
-      const auto next = next_.sample(scene, {current, direction}, rng);
-      if (!next) break;
-      if (!(next->pdf > T(0))) {
-        sink.drop(DropReason::zero_density);
-        return;
-      }
-      beta = beta * (next->factor / next->pdf);
+      Sample& next = slots[current ^ 1u];
+      ::new (static_cast<void*>(&next)) Sample(next_.sample(scene, {s.segment, s.direction}, rng));
+      if (!next) break;  // samplers return only samples with pdf > 0 (SegmentSampler, 7.)
+      beta = beta * next->weight;
       if (is_black(beta)) break;
-      current = next->segment;
-      direction = next->direction;
     }
     if (!is_finite(total)) {
       sink.drop(DropReason::non_finite);

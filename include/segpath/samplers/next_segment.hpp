@@ -35,38 +35,20 @@ class NextSegmentSampler {
 
   /// Draws s_{i+1} with factor K f_r G(s_{i+1}) (N17) and its density (N31).
   template <UniformSource<T> R>
-  [[nodiscard]] std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t, R& rng) const noexcept {
-    const Segment<T>& prev = t.previous;
+  [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
+                                                                     R& rng) const noexcept {
     const Vec2<T> u_kernel = rng.template uniform2<T>();
     const Vec2<T> u_bsdf = rng.template uniform2<T>();
     const T u_lobe = rng.template uniform<T>();
-    // For a Dirac kernel the draw is y_i itself (K / p_K = 1): skip the kernel entirely.
-    std::optional<KernelSample<T>> junction;
     if constexpr (K::is_dirac) {
-      junction = KernelSample<T>{prev.y, T(1)};
+      // The junction is y_i itself and K / p_K = 1: no kernel work at all.
+      (void)u_kernel;
+      return continue_from(scene, t, t.previous.y, T(1), u_bsdf, u_lobe);
     } else {
-      junction = kernel_.sample(KernelSampleQuery<T>{prev, u_kernel});
+      const auto junction = kernel_.sample(KernelSampleQuery<T>{t.previous, u_kernel});
       if (!junction || !(junction->pdf > T(0))) return std::nullopt;
+      return continue_from(scene, t, junction->point, junction->pdf, u_bsdf, u_lobe);
     }
-    const auto bsdf = scene.bsdf().sample(
-        BsdfSampleQuery<T>{prev.y, -t.direction, u_bsdf, u_lobe, Transport::radiance});
-    if (!bsdf || !(bsdf->pdf > T(0))) return std::nullopt;
-    const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{junction->point.position, bsdf->direction}});
-    if (!hit) return std::nullopt;
-
-    SegmentSample<S> out;
-    out.segment = Segment<T>{junction->point, hit->point};
-    out.direction = bsdf->direction;
-    out.delta = bsdf->delta;
-    const T g = geometry_term(out.segment, bsdf->direction, hit->distance);
-    if constexpr (K::is_dirac) {
-      out.factor = link_factor(T(1), bsdf->value, g);
-    } else {
-      out.factor = link_factor(kernel_.eval(KernelQuery<T>{prev, out.segment}), bsdf->value, g);
-    }
-    out.pdf = junction->pdf * solid_angle_to_area(bsdf->pdf, junction->point, hit->point, bsdf->direction,
-                                                  hit->distance);
-    return out;
   }
 
   /// p(s | s_i) of (N31) for any segment s, including V(x, y) (y must be the first hit).
@@ -82,6 +64,29 @@ class NextSegmentSampler {
   }
 
  private:
+  /// The rest of (N31) from the junction x_{i+1}: BSDF direction at y_i, first hit, factor,
+  /// density and weight, written straight into the returned optional (one object, NRVO).
+  SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> continue_from(const Scn& scene, const Technique& t,
+                                                                     const SurfacePoint<T>& junction, T junction_pdf,
+                                                                     const Vec2<T>& u_bsdf, T u_lobe) const noexcept {
+    std::optional<SegmentSample<S>> out;
+    const Segment<T>& prev = t.previous;
+    const auto bsdf = scene.bsdf().sample(BsdfSampleQuery<T>{prev.y, -t.direction, u_bsdf, u_lobe, Transport::radiance});
+    if (!bsdf || !(bsdf->pdf > T(0))) return out;
+    const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{junction.position, bsdf->direction}});
+    if (!hit) return out;
+    // (N17) factor K f_r G(s') and (N31) density p_K p_w |n_y . s^| / d^2 share |n_y . s^| / d^2.
+    const T cos_x = endpoint_cosine(junction, bsdf->direction);
+    const T area_factor = solid_angle_to_area(T(1), junction, hit->point, bsdf->direction, hit->distance);
+    T k = T(1);
+    if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{prev, Segment<T>{junction, hit->point}});
+    // Built in one expression: no default-initialised sample overwritten field by field.
+    out.emplace(Segment<T>{junction, hit->point}, bsdf->direction, link_factor(k, bsdf->value, cos_x * area_factor),
+                junction_pdf * bsdf->pdf * area_factor, bsdf->value * ((k / junction_pdf) * cos_x / bsdf->pdf),
+                bsdf->delta);
+    return out;
+  }
+
   K kernel_;
 };
 

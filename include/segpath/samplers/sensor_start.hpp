@@ -27,18 +27,20 @@ class SensorStartSampler {
   /// (visibility holds by construction: y_1 is the first hit).
   template <UniformSource<T> R>
   [[nodiscard]] std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t, R& rng) const noexcept {
+    std::optional<SegmentSample<S>> out;  // the one returned object (NRVO)
     const Vec2<T> u_position = rng.template uniform2<T>();
     const Vec2<T> u_direction = rng.template uniform2<T>();
     const auto ray = scene.sensor().sample_ray(SensorSampleQuery<T>{t.pixel, u_position, u_direction});
-    if (!ray) return std::nullopt;
+    if (!ray) return out;
+    const T pdf_ray = ray->pdf_position * ray->pdf_direction;
+    if (!(pdf_ray > T(0))) return out;
     const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{ray->origin.position, ray->direction}});
-    if (!hit) return std::nullopt;
-    SegmentSample<S> out;
-    out.segment = Segment<T>{ray->origin, hit->point};
-    out.direction = ray->direction;
-    out.pdf = solid_angle_to_area(ray->pdf_position * ray->pdf_direction, ray->origin, hit->point, ray->direction,
-                                  hit->distance);
-    out.factor = S(ray->importance * geometry_term(out.segment, ray->direction, hit->distance));
+    if (!hit) return out;
+    // W G / p: the |n_y . s^| / d^2 of G and of the density cancel.
+    const T area_factor = solid_angle_to_area(T(1), ray->origin, hit->point, ray->direction, hit->distance);
+    const T cos_x = endpoint_cosine(ray->origin, ray->direction);
+    out.emplace(Segment<T>{ray->origin, hit->point}, ray->direction, S(ray->importance * cos_x * area_factor),
+                pdf_ray * area_factor, S(ray->importance * cos_x / pdf_ray), false);
     return out;
   }
 

@@ -1,0 +1,25 @@
+// segpath: everything but the opt-in adapters (segpath/adapters/) and the test kit
+// (segpath/testing/). Include single headers instead to keep compile times down.
+#pragma once
+
+#include "segpath/config.hpp"
+#include "segpath/concepts/concepts.hpp"
+#include "segpath/core/contribution.hpp"
+#include "segpath/core/drop.hpp"
+#include "segpath/core/frame.hpp"
+#include "segpath/core/geometry.hpp"
+#include "segpath/core/ray.hpp"
+#include "segpath/core/rng.hpp"
+#include "segpath/core/segment.hpp"
+#include "segpath/core/spectrum.hpp"
+#include "segpath/core/surface_point.hpp"
+#include "segpath/core/vec.hpp"
+#include "segpath/core/warp.hpp"
+#include "segpath/estimators/sequential.hpp"
+#include "segpath/kernels/dirac.hpp"
+#include "segpath/kernels/disk.hpp"
+#include "segpath/kernels/progressive_radius.hpp"
+#include "segpath/materials/lambertian.hpp"
+#include "segpath/samplers/next_segment.hpp"
+#include "segpath/samplers/sensor_start.hpp"
+#include "segpath/sensors/probe.hpp"
