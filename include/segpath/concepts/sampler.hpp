@@ -27,6 +27,10 @@ struct SegmentSample {
   Vec3<Scalar> direction{};  ///< unit s^ of `segment`, as the sampler computed it
   S factor{};
   Scalar pdf = 0;
+  /// factor / pdf with the common factors cancelled analytically (for a ray-traced successor
+  /// K/p_K f_r |n_x . s^| / p_w: the |n_y . s^| / d^2 shared by G and the density drops out).
+  /// Sequential estimators multiply by it; it is finite whenever pdf > 0.
+  S weight{};
   bool delta = false;  ///< a specular (delta) BSDF lobe was sampled
 };
 

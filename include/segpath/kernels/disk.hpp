@@ -6,6 +6,7 @@
 #include "segpath/core/frame.hpp"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -41,15 +42,25 @@ class DiskKernel {
 
   /// x' uniform in the disk of radius r in the tangent plane of y (exact on planar
   /// neighbourhoods; elsewhere the locally-planar approximation of VCM). The drawn point
-  /// keeps y's normal, frame and ids.
-  [[nodiscard]] std::optional<KernelSample<T>> sample(const KernelSampleQuery<T>& q) const noexcept {
+  /// keeps y's normal, frame and ids. A draw that rounding puts on or beyond the rim (u.x
+  /// near 1, or r small against |y|) is pulled inward until in_support holds, so the returned
+  /// pdf is always pdf() of the point; nullopt only for non-surface or non-finite y.
+  [[nodiscard]] std::optional<KernelSample<T>> sample(
+      const KernelSampleQuery<T>& q) const noexcept {
     const SurfacePoint<T>& y = q.from.y;
     if (y.kind != PointKind::surface) return std::nullopt;
     const T rho = radius_ * std::sqrt(q.u.x);
     const T phi = T(2) * pi<T> * q.u.y;
     const Frame<T> frame = Frame<T>::from_normal(y.normal);
+    const Vec3<T> offset =
+        frame.tangent * (rho * std::cos(phi)) + frame.bitangent * (rho * std::sin(phi));
     SurfacePoint<T> x = y;
-    x.position = y.position + frame.tangent * (rho * std::cos(phi)) + frame.bitangent * (rho * std::sin(phi));
+    x.position = y.position + offset;
+    for (T shrink = T(4) * std::numeric_limits<T>::epsilon(); SEGPATH_UNLIKELY(!in_support(y, x));
+         shrink *= T(4)) {
+      if (!(shrink < T(1))) return std::nullopt;
+      x.position = y.position + offset * (T(1) - shrink);
+    }
     return KernelSample<T>{x, inv_area_};
   }
 
@@ -59,7 +70,11 @@ class DiskKernel {
   [[nodiscard]] bool in_support(const SurfacePoint<T>& y, const SurfacePoint<T>& x) const noexcept {
     if (y.kind != PointKind::surface || x.kind != PointKind::surface) return false;
     const Vec3<T> d = x.position - y.position;
-    return glm::dot(d, d) < radius_ * radius_ && glm::dot(x.normal, y.normal) >= min_normal_cosine_;
+    // The slack of a few ulps keeps min_normal_cosine = 1 meaning "same normal": the dot
+    // product of a unit normal with itself rounds to slightly below 1.
+    return glm::dot(d, d) < radius_ * radius_ &&
+           glm::dot(x.normal, y.normal) >=
+               min_normal_cosine_ - T(8) * std::numeric_limits<T>::epsilon();
   }
 
  private:
