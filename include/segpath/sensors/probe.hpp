@@ -4,9 +4,11 @@
 #pragma once
 
 #include "segpath/concepts/sensor.hpp"
+#include "segpath/core/ray.hpp"
 
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <vector>
