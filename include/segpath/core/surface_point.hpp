@@ -42,6 +42,10 @@ struct SurfacePoint {
                                                std::uint32_t material = invalid_id) noexcept {
     return SurfacePoint{p, n, n, primitive, material, PointKind::surface};
   }
+  /// The endpoint at infinity in direction `d` (unit): where a ray that leaves the scene ends.
+  [[nodiscard]] static SurfacePoint at_infinity(const Vec3<T>& d) noexcept {
+    return SurfacePoint{d, -d, -d, invalid_id, invalid_id, PointKind::direction};
+  }
   /// A delta position without a surface (pinhole, point light); `n` is only a reference axis.
   [[nodiscard]] static SurfacePoint at_point(const Vec3<T>& p,
                                              const Vec3<T>& n = Vec3<T>(0, 0, 1)) noexcept {

@@ -40,6 +40,8 @@ class NextSegmentSampler {
     const Vec2<T> u_kernel = rng.template uniform2<T>();
     const Vec2<T> u_bsdf = rng.template uniform2<T>();
     const T u_lobe = rng.template uniform<T>();
+    // Paths do not continue from a light end that is not on a surface (infinity, a point).
+    if (t.previous.y.kind != PointKind::surface) return std::nullopt;
     if constexpr (K::is_dirac) {
       // The junction is y_i itself and K / p_K = 1: no kernel work at all.
       (void)u_kernel;
@@ -73,15 +75,18 @@ class NextSegmentSampler {
     const Segment<T>& prev = t.previous;
     const auto bsdf = scene.bsdf().sample(BsdfSampleQuery<T>{prev.y, -t.direction, u_bsdf, u_lobe, Transport::radiance});
     if (!bsdf || !(bsdf->pdf > T(0))) return out;
-    const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{junction.position, bsdf->direction}});
-    if (!hit) return out;
+    const auto found = scene.intersect(IntersectQuery<T>{Ray<T>{junction.position, bsdf->direction}});
+    // A ray that leaves the scene ends at infinity (a `direction` endpoint).
+    SurfacePoint<T> escaped;
+    const SurfacePoint<T>& y = found ? found->point : (escaped = SurfacePoint<T>::at_infinity(bsdf->direction));
+    const T distance = found ? found->distance : T(1);
     // (N17) factor K f_r G(s') and (N31) density p_K p_w |n_y . s^| / d^2 share |n_y . s^| / d^2.
     const T cos_x = endpoint_cosine(junction, bsdf->direction);
-    const T area_factor = solid_angle_to_area(T(1), junction, hit->point, bsdf->direction, hit->distance);
+    const T area_factor = solid_angle_to_area(T(1), junction, y, bsdf->direction, distance);
     T k = T(1);
-    if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{prev, Segment<T>{junction, hit->point}});
+    if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{prev, Segment<T>{junction, y}});
     // Built in one expression: no default-initialised sample overwritten field by field.
-    out.emplace(Segment<T>{junction, hit->point}, bsdf->direction, link_factor(k, bsdf->value, cos_x * area_factor),
+    out.emplace(Segment<T>{junction, y}, bsdf->direction, link_factor(k, bsdf->value, cos_x * area_factor),
                 junction_pdf * bsdf->pdf * area_factor, bsdf->value * ((k / junction_pdf) * cos_x / bsdf->pdf),
                 bsdf->delta);
     return out;

@@ -23,7 +23,7 @@ class SensorStartSampler {
   /// Pinhole cameras and probes are deltas in position (and probes in direction).
   static constexpr bool is_dirac = true;
 
-  /// Draws s_1 with pdf = p_pos(x_1) p_w(s^) |n_y . s^| / |x - y|^2 and factor W G(s_1)
+  /// Draws s_1 (y_1 the first hit, or the `direction` endpoint of an escaping ray) with pdf = p_pos(x_1) p_w(s^) |n_y . s^| / |x - y|^2 and factor W G(s_1)
   /// (visibility holds by construction: y_1 is the first hit).
   template <UniformSource<T> R>
   [[nodiscard]] std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t, R& rng) const noexcept {
@@ -35,11 +35,15 @@ class SensorStartSampler {
     const T pdf_ray = ray->pdf_position * ray->pdf_direction;
     if (!(pdf_ray > T(0))) return out;
     const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{ray->origin.position, ray->direction}});
-    if (!hit) return out;
+    // A ray that leaves the scene ends at infinity (a `direction` endpoint), where an
+    // environment emitter may shine; its density is in solid angle there.
+    SurfacePoint<T> escaped;
+    const SurfacePoint<T>& y = hit ? hit->point : (escaped = SurfacePoint<T>::at_infinity(ray->direction));
+    const T distance = hit ? hit->distance : T(1);
     // W G / p: the |n_y . s^| / d^2 of G and of the density cancel.
-    const T area_factor = solid_angle_to_area(T(1), ray->origin, hit->point, ray->direction, hit->distance);
+    const T area_factor = solid_angle_to_area(T(1), ray->origin, y, ray->direction, distance);
     const T cos_x = endpoint_cosine(ray->origin, ray->direction);
-    out.emplace(Segment<T>{ray->origin, hit->point}, ray->direction, S(ray->importance * cos_x * area_factor),
+    out.emplace(Segment<T>{ray->origin, y}, ray->direction, S(ray->importance * cos_x * area_factor),
                 pdf_ray * area_factor, S(ray->importance * cos_x / pdf_ray), false);
     return out;
   }
