@@ -1,0 +1,106 @@
+// Endpoint clustering for propagation (SPEC 1.8 step 2): every segment endpoint gets a voxel
+// key; after a sort, each run of equal keys is one cluster, holding the segments that start
+// there (x ends) and those that end there (y ends). Each segment is in at most two clusters.
+#pragma once
+
+#include "segpath/core/segment.hpp"
+#include "segpath/propagation/plane_box_area.hpp"
+#include "segpath/propagation/voxel_grid.hpp"
+
+#include <algorithm>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+namespace segpath {
+
+inline constexpr std::uint32_t no_cluster = 0xffffffffu;
+
+/// One endpoint in a cluster: which segment and which end.
+struct EndpointRef {
+  VoxelKey key;
+  std::uint32_t segment = 0;
+  std::uint8_t end = 0;  ///< 0: the x end (the segment starts here), 1: the y end (it ends here)
+
+  friend constexpr bool operator<(const EndpointRef& a, const EndpointRef& b) noexcept {
+    if (a.key != b.key) return a.key < b.key;
+    if (a.end != b.end) return a.end < b.end;
+    return a.segment < b.segment;
+  }
+};
+
+/// A cluster: refs[begin, middle) are segments starting in it, refs[middle, end) segments
+/// ending in it; `kernel` is the voxel kernel value 1/|K| (0 when the support is degenerate).
+template <Real T>
+struct Cluster {
+  std::uint32_t begin = 0, middle = 0, end = 0;
+  T kernel = 0;
+
+  [[nodiscard]] std::uint32_t starting_count() const noexcept { return middle - begin; }
+  [[nodiscard]] std::uint32_t ending_count() const noexcept { return end - middle; }
+};
+
+/// The clusters of one iteration. Memory: one EndpointRef per endpoint plus two cluster ids
+/// per segment, O(#segments). Deterministic: the sort order is a total order.
+template <Real T>
+class Clustering {
+ public:
+  Clustering() = default;
+
+  /// Clusters the endpoints of `segments` on `grid`. Endpoints that are not surface points
+  /// (pinholes, points at infinity) join no cluster.
+  void build(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments) {
+    refs_.clear();
+    clusters_.clear();
+    cluster_of_x_.assign(segments.size(), no_cluster);
+    cluster_of_y_.assign(segments.size(), no_cluster);
+    refs_.reserve(2 * segments.size());
+    for (std::uint32_t i = 0; i < segments.size(); ++i) {
+      if (const auto kx = grid.key(segments[i].x); kx.valid) refs_.push_back({kx.key, i, 0});
+      if (const auto ky = grid.key(segments[i].y); ky.valid) refs_.push_back({ky.key, i, 1});
+    }
+    std::sort(refs_.begin(), refs_.end());
+    for (std::uint32_t b = 0; b < refs_.size();) {
+      std::uint32_t e = b, m = b;
+      while (e < refs_.size() && refs_[e].key == refs_[b].key) {
+        if (refs_[e].end == 0) m = e + 1;
+        ++e;
+      }
+      const auto id = static_cast<std::uint32_t>(clusters_.size());
+      Cluster<T> c{b, m, e, T(0)};
+      Vec3<T> mean_position(0), mean_normal(0);
+      for (std::uint32_t r = b; r < e; ++r) {
+        const Segment<T>& s = segments[refs_[r].segment];
+        const SurfacePoint<T>& p = refs_[r].end == 0 ? s.x : s.y;
+        mean_position += p.position;
+        mean_normal += p.normal;
+        (refs_[r].end == 0 ? cluster_of_x_ : cluster_of_y_)[refs_[r].segment] = id;
+      }
+      mean_position /= T(e - b);
+      const auto box = grid.bounds(refs_[b].key);
+      const T area = plane_box_area(mean_position, mean_normal, box[0], box[1]);
+      c.kernel = area > T(0) ? T(1) / area : T(0);
+      clusters_.push_back(c);
+      b = e;
+    }
+  }
+
+  [[nodiscard]] std::span<const Cluster<T>> clusters() const noexcept { return clusters_; }
+  [[nodiscard]] std::span<const EndpointRef> refs() const noexcept { return refs_; }
+  /// The cluster a segment starts in (its x end), or no_cluster.
+  [[nodiscard]] std::uint32_t cluster_of_x(std::uint32_t segment) const noexcept { return cluster_of_x_[segment]; }
+  /// The cluster a segment ends in (its y end), or no_cluster.
+  [[nodiscard]] std::uint32_t cluster_of_y(std::uint32_t segment) const noexcept { return cluster_of_y_[segment]; }
+  [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
+    if (cluster_of_x_.empty()) return 0;
+    return (refs_.capacity() * sizeof(EndpointRef) + clusters_.capacity() * sizeof(Cluster<T>) +
+            2 * cluster_of_x_.capacity() * sizeof(std::uint32_t)) / cluster_of_x_.size();
+  }
+
+ private:
+  std::vector<EndpointRef> refs_;
+  std::vector<Cluster<T>> clusters_;
+  std::vector<std::uint32_t> cluster_of_x_, cluster_of_y_;
+};
+
+}  // namespace segpath
