@@ -71,4 +71,11 @@ concept UniformSource = Real<T> && requires(R& r) {
   { r.template uniform<T>() } -> std::same_as<T>;
 };
 
+/// Two uniforms from any UniformSource, in order (x first).
+template <Real T, UniformSource<T> R>
+[[nodiscard]] constexpr Vec2<T> uniform2(R& rng) noexcept {
+  const T a = rng.template uniform<T>();
+  return Vec2<T>(a, rng.template uniform<T>());
+}
+
 }  // namespace segpath

@@ -37,8 +37,8 @@ class NextSegmentSampler {
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
                                                                      R& rng) const noexcept {
-    const Vec2<T> u_kernel = rng.template uniform2<T>();
-    const Vec2<T> u_bsdf = rng.template uniform2<T>();
+    const Vec2<T> u_kernel = uniform2<T>(rng);
+    const Vec2<T> u_bsdf = uniform2<T>(rng);
     const T u_lobe = rng.template uniform<T>();
     // Paths do not continue from a light end that is not on a surface (infinity, a point).
     if (t.previous.y.kind != PointKind::surface) return std::nullopt;

@@ -28,8 +28,8 @@ class SensorStartSampler {
   template <UniformSource<T> R>
   [[nodiscard]] std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t, R& rng) const noexcept {
     std::optional<SegmentSample<S>> out;  // the one returned object (NRVO)
-    const Vec2<T> u_position = rng.template uniform2<T>();
-    const Vec2<T> u_direction = rng.template uniform2<T>();
+    const Vec2<T> u_position = uniform2<T>(rng);
+    const Vec2<T> u_direction = uniform2<T>(rng);
     const auto ray = scene.sensor().sample_ray(SensorSampleQuery<T>{t.pixel, u_position, u_direction});
     if (!ray) return out;
     const T pdf_ray = ray->pdf_position * ray->pdf_direction;

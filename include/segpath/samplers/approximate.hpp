@@ -1,0 +1,158 @@
+// Approximate sequential samplers (N33), the UPS "virtual perturbation": the junction is an
+// exact copy of the previous end (x_{i+1} = y_i on the sensor side, y_i = x_{i+1} on the light
+// side), no kernel draw, but the reported density still carries the kernel's density there.
+#pragma once
+
+#include "segpath/concepts/kernel.hpp"
+#include "segpath/concepts/sampler.hpp"
+#include "segpath/concepts/scene.hpp"
+#include "segpath/core/contribution.hpp"
+#include "segpath/core/geometry.hpp"
+#include "segpath/samplers/light_next.hpp"
+
+#include <optional>
+
+namespace segpath {
+
+/// Sensor-side approximate successor (N33). sample() continues from x_{i+1} = y_i itself and
+/// reports
+///   pdf    = p_K(y_i | s_i) p_w(s^_{i+1} | y_i, s_i) |n_y . s^| / d^2,
+///   factor = K(s_i, s_{i+1}) f_r G(s_{i+1}),
+/// both kernels at zero distance (the disk kernel's 1/(pi r^2) at its centre), so weight =
+/// f_r |n_x . s^| / p_w equals the Dirac-kernel weight: the sample is a Dirac draw weighted
+/// as if it had been a kernel draw. The reported density is not the density sample() draws
+/// with (that one is a delta in x_{i+1}): estimators that divide by it, or by MMIS sums of
+/// pdf() over techniques (N39-N42), are biased for a fixed kernel; the bias vanishes as the
+/// kernel shrinks (PPM-style radius schedule), so they are consistent (N33).
+/// pdf(scene, t, s) is (N31) with the kernel's density for ANY segment s, exactly as
+/// NextSegmentSampler's: MMIS evaluates it for segments that start anywhere in the support.
+/// is_dirac follows the kernel: pdf() is a proper density whenever the kernel's is.
+template <Scene Scn, Kernel K>
+  requires std::same_as<typename K::Scalar, typename Scn::Scalar>
+class ApproximateNextSegmentSampler {
+ public:
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  /// The segment s_i being continued, with its unit direction (as NextSegmentSampler's).
+  struct Technique {
+    const Segment<T>& previous;
+    Vec3<T> direction;
+    Technique(const Segment<T>& s) noexcept : previous(s), direction(s.direction()) {}  // NOLINT: implicit by design
+    Technique(const Segment<T>& s, const Vec3<T>& d) noexcept : previous(s), direction(d) {}
+  };
+  static constexpr bool is_dirac = K::is_dirac;
+
+  explicit ApproximateNextSegmentSampler(K kernel) noexcept(std::is_nothrow_move_constructible_v<K>)
+      : kernel_(std::move(kernel)) {}
+  [[nodiscard]] const K& kernel() const noexcept { return kernel_; }
+
+  template <UniformSource<T> R>
+  [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
+                                                                            R& rng) const noexcept {
+    std::optional<SegmentSample<S>> out;
+    const T u0 = rng.template uniform<T>();
+    const T u1 = rng.template uniform<T>();
+    const T u_lobe = rng.template uniform<T>();
+    const Segment<T>& prev = t.previous;
+    const auto bsdf = scene.bsdf().sample(
+        BsdfSampleQuery<T>{prev.y, -t.direction, Vec2<T>(u0, u1), u_lobe, Transport::radiance});
+    if (!bsdf || !(bsdf->pdf > T(0))) return out;
+    const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{prev.y.position, bsdf->direction}});
+    if (!hit) return out;
+    // A grazing ray whose hit rounds to the other side of y_i's tangent plane: outside pdf()'s support.
+    if (prev.y.kind == PointKind::surface &&
+        !(glm::dot(hit->point.position - prev.y.position, prev.y.normal) * glm::dot(bsdf->direction, prev.y.normal) >
+          T(0)))
+      return out;
+    const Segment<T> s{prev.y, hit->point};
+    const T p_kernel = kernel_.pdf(KernelQuery<T>{prev, s});
+    if (!(p_kernel > T(0))) return out;
+    const T k = kernel_.eval(KernelQuery<T>{prev, s});
+    const T cos_x = endpoint_cosine(s.x, bsdf->direction);
+    const T area_factor = solid_angle_to_area(T(1), s.x, s.y, bsdf->direction, hit->distance);
+    out.emplace(s, bsdf->direction, link_factor(k, bsdf->value, cos_x * area_factor),
+                p_kernel * bsdf->pdf * area_factor, bsdf->value * ((k / p_kernel) * cos_x / bsdf->pdf), bsdf->delta);
+    return out;
+  }
+
+  /// p_K(s.x | s_i) p_w(s^ | y_i, s_i) |n_y . s^| / d^2 with V(x, y), for any segment s.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    const Segment<T>& prev = t.previous;
+    if (s.y.kind != PointKind::direction && !(s.length_squared() > T(0))) return T(0);
+    const T p_kernel = kernel_.pdf(KernelQuery<T>{prev, s});
+    if (!(p_kernel > T(0))) return T(0);
+    const T p_direction =
+        scene.bsdf().pdf(BsdfQuery<T>{prev.y, -t.direction, s.direction(), Transport::radiance});
+    if (!(p_direction > T(0))) return T(0);
+    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
+    return p_kernel * solid_angle_to_area(p_direction, s.x, s.y);
+  }
+
+ private:
+  K kernel_;
+};
+
+/// Light-side approximate successor (N33), the mirror image: y_i = x_{i+1} itself, the
+/// adjoint BSDF there samples -s^_i, x_i is the first hit, and
+///   pdf    = p_K(x_{i+1} | s_{i+1}) p_w(-s^_i | x_{i+1}, s^_{i+1}) |n_x . s^_i| / d^2,
+///   factor = K(s_i, s_{i+1}) f_r G(s_i),
+/// kernels at zero distance, so the weight equals the Dirac-kernel weight; biased but
+/// consistent exactly as ApproximateNextSegmentSampler. pdf(scene, t, s) is
+/// LightNextSegmentSampler's for any segment s.
+template <Scene Scn, Kernel K>
+  requires std::same_as<typename K::Scalar, typename Scn::Scalar>
+class ApproximateLightNextSegmentSampler {
+ public:
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  /// The segment s_{i+1} being continued towards the sensor, with its unit direction.
+  struct Technique {
+    const Segment<T>& next;
+    Vec3<T> direction;
+    Technique(const Segment<T>& s) noexcept : next(s), direction(s.direction()) {}  // NOLINT: implicit by design
+    Technique(const Segment<T>& s, const Vec3<T>& d) noexcept : next(s), direction(d) {}
+  };
+  static constexpr bool is_dirac = K::is_dirac;
+
+  explicit ApproximateLightNextSegmentSampler(K kernel) noexcept(std::is_nothrow_move_constructible_v<K>)
+      : kernel_(std::move(kernel)) {}
+  [[nodiscard]] const K& kernel() const noexcept { return kernel_; }
+
+  template <UniformSource<T> R>
+  [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
+                                                                            R& rng) const noexcept {
+    const T u0 = rng.template uniform<T>();
+    const T u1 = rng.template uniform<T>();
+    const T u_lobe = rng.template uniform<T>();
+    // Junction density 1 first; the kernel's density at its centre needs the finished s_i.
+    auto out = detail::light_continue_from(scene, kernel_, t.next, t.direction, t.next.x, T(1), Vec2<T>(u0, u1),
+                                           u_lobe);
+    if (!out) return out;
+    const T p_kernel = kernel_.pdf(KernelQuery<T>{detail::reversed(t.next), detail::reversed(out->segment)});
+    if (!(p_kernel > T(0))) {
+      out.reset();
+      return out;
+    }
+    out->pdf *= p_kernel;
+    out->weight = out->weight / p_kernel;
+    return out;
+  }
+
+  /// p_K(s.y | s_{i+1}) p_w(-s^ | y, s^_{i+1}) |n_x . s^| / d^2 with V(x, y), for any segment s.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    if (s.x.kind == PointKind::direction || !(s.length_squared() > T(0))) return T(0);
+    const T p_kernel = kernel_.pdf(KernelQuery<T>{detail::reversed(t.next), detail::reversed(s)});
+    if (!(p_kernel > T(0))) return T(0);
+    const Vec3<T> direction = s.direction();
+    const T p_direction =
+        scene.bsdf().pdf(BsdfQuery<T>{s.y, -direction, t.direction, Transport::importance});
+    if (!(p_direction > T(0))) return T(0);
+    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
+    return p_kernel * solid_angle_to_area(p_direction, s.y, s.x);
+  }
+
+ private:
+  K kernel_;
+};
+
+}  // namespace segpath
