@@ -29,9 +29,14 @@ struct EmissionSampleQuery {
 
 /// A light-end y_k and the direction light leaves it in (towards x_k). Densities: position
 /// in area measure (discrete for `point` emitters, the selection probability folded in),
-/// direction in solid angle. For `direction` emitters (distant lights) the roles swap:
-/// `point.position` is the travel direction reversed, pdf_position is a solid-angle density
-/// and pdf_direction an area density on the plane perpendicular to it.
+/// direction in solid angle. For `direction` emitters (distant lights, the sky) the roles
+/// swap: `point` is the `direction` endpoint (its `position` holds the unit direction from
+/// the scene towards the light), `pdf_position` is the solid-angle density of that direction
+/// (1, a delta coefficient, for a sun), `direction` holds the ORIGIN of the emitted ray (a
+/// point on a disk perpendicular to the travel direction, outside the scene's bounds) and
+/// `pdf_direction` is the area density of that origin on the disk; the first hit x then has
+/// area density pdf_position * pdf_direction * |n_x . d|. pdf_emission reads `direction`
+/// the same way (any point on the ray).
 template <class S>
 struct EmissionSample {
   using Scalar = spectrum_scalar_t<S>;
