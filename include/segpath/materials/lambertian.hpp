@@ -3,12 +3,9 @@
 
 #include "segpath/concepts/bsdf.hpp"
 #include "segpath/core/warp.hpp"
+#include "segpath/materials/scattering.hpp"
 
 namespace segpath {
-
-/// Below this cosine with the geometric normal a direction counts as behind a one-sided
-/// surface (the Cornell-box convention, cornell-boxes.md).
-template <Real T> inline constexpr T one_sided_epsilon = T(1e-6);
 
 /// Diffuse reflection. Both directions must lie above the geometric normal; directions are
 /// sampled by cosine about the shading normal.
@@ -22,13 +19,13 @@ struct Lambertian {
     return albedo * inv_pi<Scalar>;
   }
 
-  [[nodiscard]] std::optional<BsdfSample<S>> sample(const BsdfSampleQuery<Scalar>& q) const noexcept {
-    if (glm::dot(q.fixed, q.point.normal) <= one_sided_epsilon<Scalar>) return std::nullopt;
+  [[nodiscard]] std::optional<BsdfSample<S>> sample(
+      const BsdfSampleQuery<Scalar>& q) const noexcept {
+    if (!is_above(q.point, q.fixed)) return std::nullopt;
     const Vec3<Scalar> local = square_to_cosine_hemisphere(q.u);
     const Vec3<Scalar> direction = q.point.shading_frame().to_world(local);
     const Scalar pdf = square_to_cosine_hemisphere_pdf(local);
-    if (!(pdf > Scalar(0)) || glm::dot(direction, q.point.normal) <= one_sided_epsilon<Scalar>)
-      return std::nullopt;
+    if (!(pdf > Scalar(0)) || !is_above(q.point, direction)) return std::nullopt;
     return BsdfSample<S>{direction, albedo * inv_pi<Scalar>, pdf, false};
   }
 
@@ -40,8 +37,9 @@ struct Lambertian {
   }
 
  private:
-  static bool both_above(const SurfacePoint<Scalar>& p, const Vec3<Scalar>& a, const Vec3<Scalar>& b) noexcept {
-    return glm::dot(a, p.normal) > one_sided_epsilon<Scalar> && glm::dot(b, p.normal) > one_sided_epsilon<Scalar>;
+  static bool both_above(const SurfacePoint<Scalar>& p, const Vec3<Scalar>& a,
+                         const Vec3<Scalar>& b) noexcept {
+    return is_above(p, a) && is_above(p, b);
   }
 };
 

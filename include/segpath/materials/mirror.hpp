@@ -1,0 +1,51 @@
+// A perfect specular reflector without Fresnel term (the Cornell-box mirror spheres): a
+// delta BSDF that only sample() can produce.
+#pragma once
+
+#include <cmath>
+#include <stdexcept>
+
+#include "segpath/concepts/bsdf.hpp"
+#include "segpath/materials/scattering.hpp"
+
+namespace segpath {
+
+/// f_r = R delta(w_free - reflect(w_fixed)) / |n . w_free|, R the reflectance (1 in the
+/// Cornell boxes), one-sided about the geometric normal.
+///
+/// Delta coefficient convention (BsdfSample): sample() returns delta = true, pdf = 1 (the
+/// single lobe's selection probability) and value = R / |n . w|, w the sampled direction and
+/// n the geometric normal (the cosine the geometry term G carries), so that
+/// value |n . w| / pdf = R exactly. eval() and pdf() return 0: no finite density describes a
+/// delta lobe. Both Transport modes alike (reflection is symmetric).
+template <Spectrum S>
+class Mirror {
+ public:
+  using Scalar = spectrum_scalar_t<S>;
+
+  /// Throws std::invalid_argument for a non-finite reflectance.
+  explicit Mirror(S reflectance = S(Scalar(1))) : reflectance_(reflectance) {
+    if (!is_finite(reflectance))
+      throw std::invalid_argument("segpath::Mirror: the reflectance must be finite");
+  }
+
+  [[nodiscard]] const S& reflectance() const noexcept { return reflectance_; }
+
+  [[nodiscard]] S eval(const BsdfQuery<Scalar>&) const noexcept { return S(Scalar(0)); }
+
+  [[nodiscard]] std::optional<BsdfSample<S>> sample(
+      const BsdfSampleQuery<Scalar>& q) const noexcept {
+    if (!is_above(q.point, q.fixed)) return std::nullopt;
+    const Vec3<Scalar> direction = reflect(q.fixed, q.point.shading_normal);
+    const Scalar cosine = glm::dot(direction, q.point.normal);
+    if (!(cosine > one_sided_epsilon<Scalar>)) return std::nullopt;
+    return BsdfSample<S>{direction, reflectance_ / cosine, Scalar(1), true};
+  }
+
+  [[nodiscard]] Scalar pdf(const BsdfQuery<Scalar>&) const noexcept { return Scalar(0); }
+
+ private:
+  S reflectance_;
+};
+
+}  // namespace segpath
