@@ -1,0 +1,103 @@
+// Propagation (Algorithm 1) equals the naive recursive MMIS estimator (N39) on random small
+// pools, and the factorised clusters give the same numbers as the general sum.
+#include <segpath/estimators/recursive_mmis.hpp>
+#include <segpath/propagation/propagate.hpp>
+
+#include <vector>
+
+#include "support/catch.hpp"
+
+using namespace segpath;
+
+namespace {
+
+/// A random pool: segment ends scattered over a few voxels so that clusters hold several
+/// starting and ending segments; some ends are off the manifold (no cluster).
+struct RandomPool {
+  std::vector<Segment<double>> segments;
+  std::vector<double> emitted, weighted_geometry, diffuse;
+  std::vector<double> link_table;  // link(s, s') for every pair
+  std::size_t n = 0;
+};
+
+RandomPool make_pool(Pcg32& rng) {
+  RandomPool pool;
+  pool.n = 4 + rng.next_u32() % 9;
+  auto point = [&] {
+    if (rng.uniform<double>() < 0.08) return SurfacePoint<double>::at_point({0, 0, -5});
+    return SurfacePoint<double>::on_surface({rng.uniform<double>() * 2, rng.uniform<double>() * 2, 0.5}, {0, 0, 1});
+  };
+  for (std::size_t i = 0; i < pool.n; ++i) {
+    pool.segments.push_back({point(), point()});
+    pool.emitted.push_back(rng.uniform<double>() < 0.5 ? 0.0 : rng.uniform<double>() * 3);
+    pool.weighted_geometry.push_back(rng.uniform<double>() < 0.1 ? 0.0 : rng.uniform<double>());
+    pool.diffuse.push_back(0.1 + rng.uniform<double>());
+  }
+  pool.link_table.resize(pool.n * pool.n);
+  for (auto& l : pool.link_table) l = rng.uniform<double>() * 0.8;
+  return pool;
+}
+
+}  // namespace
+
+TEST_CASE("propagation equals the naive recursive MMIS estimator on 1000 random pools", "[propagation][estimators]") {
+  Pcg32 rng(2025, 6);
+  int compared = 0, nontrivial = 0;
+  for (int trial = 0; trial < 1000; ++trial) {
+    const RandomPool pool = make_pool(rng);
+    Clustering<double> clustering;
+    clustering.build(VoxelGrid<double>(1.0, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)),
+                     pool.segments);
+    auto link = [&](std::uint32_t s, std::uint32_t sp) { return pool.link_table[s * pool.n + sp]; };
+    const PropagationInputs<double, decltype(link)> inputs{clustering, pool.emitted, pool.weighted_geometry, link};
+    const int depth = 1 + int(rng.next_u32() % 5);
+    std::vector<double> radiance, scratch;
+    propagate(inputs, depth, radiance, scratch);
+    for (std::uint32_t s = 0; s < pool.n; ++s) {
+      const double reference = recursive_mmis_radiance<double>(clustering, pool.emitted, pool.weighted_geometry, link, s, depth);
+      CHECK(radiance[s] == Approx(reference).epsilon(1e-12).margin(1e-300));
+      ++compared;
+      if (reference != pool.emitted[s]) ++nontrivial;
+    }
+  }
+  // The pools must exercise the recursion, not only L_e.
+  CHECK(nontrivial > compared / 4);
+}
+
+TEST_CASE("factorised clusters give the same radiance as the general O(n m) sum", "[propagation]") {
+  Pcg32 rng(77, 6);
+  for (int trial = 0; trial < 300; ++trial) {
+    const RandomPool pool = make_pool(rng);
+    Clustering<double> clustering;
+    clustering.build(VoxelGrid<double>(1.0), pool.segments);
+    std::vector<std::uint8_t> factorised(clustering.clusters().size());
+    for (auto& f : factorised) f = rng.uniform<double>() < 0.6 ? 1 : 0;
+    // In factorised clusters the link depends on the ending segment only.
+    auto link = [&](std::uint32_t s, std::uint32_t sp) {
+      const std::uint32_t c = clustering.cluster_of_y(s);
+      return c != no_cluster && factorised[c] ? pool.diffuse[s] : pool.link_table[s * pool.n + sp];
+    };
+    const PropagationInputs<double, decltype(link)> general{clustering, pool.emitted, pool.weighted_geometry, link};
+    const PropagationInputs<double, decltype(link)> fast{clustering, pool.emitted, pool.weighted_geometry, link,
+                                                         pool.diffuse, factorised};
+    std::vector<double> a, b, scratch;
+    propagate(general, 4, a, scratch);
+    propagate(fast, 4, b, scratch);
+    for (std::size_t s = 0; s < pool.n; ++s) CHECK(b[s] == Approx(a[s]).epsilon(1e-12).margin(1e-300));
+  }
+}
+
+TEST_CASE("propagation rejects bad input", "[propagation]") {
+  Clustering<double> clustering;
+  std::vector<Segment<double>> none;
+  clustering.build(VoxelGrid<double>(1.0), none);
+  auto link = [](std::uint32_t, std::uint32_t) { return 1.0; };
+  std::vector<double> emitted{1.0}, wg;
+  const PropagationInputs<double, decltype(link)> inputs{clustering, emitted, wg, link};
+  std::vector<double> r, s;
+  CHECK_THROWS_AS(propagate(inputs, 1, r, s), std::invalid_argument);
+  const PropagationInputs<double, decltype(link)> ok{clustering, emitted, emitted, link};
+  CHECK_THROWS_AS(propagate(ok, 0, r, s), std::invalid_argument);
+  propagate(ok, 3, r, s);  // a segment in no cluster keeps its emitted radiance
+  CHECK(r[0] == 1.0);
+}
