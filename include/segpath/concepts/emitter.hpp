@@ -76,6 +76,10 @@ struct EmitterTowardsSample {
   SurfacePoint<Scalar> point;
   S radiance{};
   Scalar pdf = 0;
+  /// The light end is a Dirac in its measure (a point light, the sun): `pdf` is the delta's
+  /// coefficient and no other technique (BSDF sampling) can produce this end, so MIS gives
+  /// this sample full weight.
+  bool delta = false;
 };
 
 template <Real T>

@@ -31,7 +31,7 @@ struct SegmentSample {
   /// K/p_K f_r |n_x . s^| / p_w: the |n_y . s^| / d^2 shared by G and the density drops out).
   /// Sequential estimators multiply by it; it is finite whenever pdf > 0.
   S weight{};
-  bool delta = false;  ///< a specular (delta) BSDF lobe was sampled
+  bool delta = false;  ///< drawn through a Dirac: a specular BSDF lobe, or a Dirac light end
 };
 
 namespace detail {

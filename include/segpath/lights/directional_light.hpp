@@ -147,7 +147,7 @@ class DirectionalLight {
   [[nodiscard]] std::optional<EmitterTowardsSample<S>> sample_towards(
       const EmitterTowardsQuery<Scalar>& q) const noexcept {
     if (q.receiver.kind == PointKind::direction) return std::nullopt;
-    return EmitterTowardsSample<S>{point(), irradiance_, Scalar(1)};
+    return EmitterTowardsSample<S>{point(), irradiance_, Scalar(1), true};
   }
 
   /// 1 at y (for a finite receiver), 0 elsewhere.

@@ -68,7 +68,7 @@ class PointLight {
     const Vec3<Scalar> delta = q.receiver.position - position_;
     if (q.receiver.kind != PointKind::direction && !(glm::dot(delta, delta) > Scalar(0)))
       return std::nullopt;
-    return EmitterTowardsSample<S>{point(), intensity_, Scalar(1)};
+    return EmitterTowardsSample<S>{point(), intensity_, Scalar(1), true};
   }
 
   /// 1 for this light's own point, 0 for any other endpoint.

@@ -101,7 +101,7 @@ class KernelBridgeSampler {
 /// The (N17) factors it carries: K(s_{i-1}, s_i) G(s_i) L_e(s_i); the BSDF f_r(s_{i-1}, s_i) at
 /// y_{i-1} is the estimator's connection term. p_L is in the measure of y's kind (area,
 /// discrete for point lights, solid angle for distant lights); G drops the matching factors.
-/// weight = (K / p_K) G L_e / p_L.
+/// weight = (K / p_K) G L_e / p_L. `delta` is set for Dirac light ends (EmitterTowardsSample::delta).
 template <LightSampledScene Scn, Kernel K>
   requires std::same_as<typename K::Scalar, typename Scn::Scalar>
 class LightBridgeSampler {
@@ -146,7 +146,7 @@ class LightBridgeSampler {
     const T g = geometry_term(s);
     T k = T(1);
     if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{t.camera, s});
-    out.emplace(s, direction, e->radiance * (k * g), p_x * e->pdf, e->radiance * ((k / p_x) * g / e->pdf), false);
+    out.emplace(s, direction, e->radiance * (k * g), p_x * e->pdf, e->radiance * ((k / p_x) * g / e->pdf), e->delta);
     return out;
   }
 

@@ -1,0 +1,112 @@
+// Segment path tracing with next-event estimation (SPEC 1.9, first row): the sensor-start
+// sampler (N29), Dirac-kernel successors (N31) and a light-end bridge (N34) at every
+// surface end, the two ways of reaching a light end combined by MIS (N5).
+#pragma once
+
+#include "segpath/concepts/estimator.hpp"
+#include "segpath/concepts/scene.hpp"
+#include "segpath/core/contribution.hpp"
+#include "segpath/kernels/dirac.hpp"
+#include "segpath/samplers/bridge.hpp"
+#include "segpath/samplers/next_segment.hpp"
+#include "segpath/samplers/sensor_start.hpp"
+#include "segpath/weights/mis.hpp"
+
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+
+namespace segpath {
+
+struct PathTracerOptions {
+  std::size_t max_length = 10;  ///< segments per path, the sensor segment included (>= 1)
+  MisHeuristic heuristic = MisHeuristic::power;
+  /// Russian roulette from this path length on (0: never). Changes noise only.
+  std::size_t roulette_from = 0;
+};
+
+template <LightSampledScene Scn>
+class PathTracer {
+ public:
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+
+  explicit PathTracer(PathTracerOptions options = {}) : options_(options) {
+    if (options.max_length < 1)
+      throw std::invalid_argument("segpath::PathTracer: max_length must be >= 1, got " +
+                                  std::to_string(options.max_length));
+  }
+  [[nodiscard]] const PathTracerOptions& options() const noexcept { return options_; }
+
+  /// One path for pixel q.pixel; exactly one sink.add (possibly zero) or sink.drop.
+  /// Emission reached by a BSDF-sampled segment is weighted against the light bridge that
+  /// could have produced the same light end, and vice versa (both in the light end's
+  /// measure: area, or solid angle at infinity); Dirac light ends (point lights, the sun)
+  /// only the bridge can reach.
+  template <UniformSource<T> R, ContributionSink<S> Sink>
+  void estimate(const Scn& scene, const EstimateQuery& q, R& rng, Sink& sink) const noexcept {
+    using Sample = std::optional<SegmentSample<S>>;
+    S total(T(0));
+    Sample slots[2];
+    ::new (static_cast<void*>(&slots[0])) Sample(first_.sample(scene, {q.pixel}, rng));
+    if (!slots[0]) {
+      sink.add(q.pixel, total);
+      return;
+    }
+    S beta = slots[0]->weight;
+    bool reached_by_bsdf = false;  // false: the sensor segment or a delta lobe (no NEE rival)
+    const auto emitter = scene.emitter();
+    for (std::size_t length = 1, current = 0;; ++length, current ^= 1u) {
+      const SegmentSample<S>& s = *slots[current];
+      const S emitted = emission_factor(scene, s.segment, s.direction);
+      if (!is_black(emitted)) {
+        T w = T(1);
+        if (reached_by_bsdf) {
+          const T p_light = emitter.pdf_towards(EmitterPdfTowardsQuery<T>{s.segment.x, s.segment.y});
+          w = mis_weight(s.pdf, p_light, options_.heuristic);
+        }
+        total += beta * emitted * w;
+      }
+      if (length == options_.max_length || s.segment.y.kind != PointKind::surface) break;
+
+      // Next-event estimation: a light-end bridge from y (Dirac junction).
+      if (const auto e = bridge_.sample(scene, {s.segment}, rng); e && e->pdf > T(0)) {
+        const BsdfQuery<T> query{s.segment.y, -s.direction, e->direction, Transport::radiance};
+        const S f = scene.bsdf().eval(query);
+        if (!is_black(f)) {
+          T w = T(1);
+          if (!e->delta) {
+            const T p_bsdf = solid_angle_to_area(scene.bsdf().pdf(query), e->segment.x, e->segment.y);
+            w = mis_weight(e->pdf, p_bsdf, options_.heuristic);
+          }
+          total += beta * f * e->weight * w;
+        }
+      }
+
+      Sample& next = slots[current ^ 1u];
+      ::new (static_cast<void*>(&next)) Sample(next_.sample(scene, {s.segment, s.direction}, rng));
+      if (!next) break;
+      beta = beta * next->weight;
+      reached_by_bsdf = !next->delta;
+      if (options_.roulette_from != 0 && length >= options_.roulette_from) {
+        const T survive = std::min(T(0.95), max_component(beta));
+        if (!(rng.template uniform<T>() < survive)) break;
+        beta = beta / survive;
+      }
+      if (is_black(beta)) break;
+    }
+    if (!is_finite(total)) {
+      sink.drop(DropReason::non_finite);
+      return;
+    }
+    sink.add(q.pixel, total);
+  }
+
+ private:
+  PathTracerOptions options_;
+  SensorStartSampler<Scn> first_;
+  NextSegmentSampler<Scn, DiracKernel<T>> next_{DiracKernel<T>{}};
+  LightBridgeSampler<Scn, DiracKernel<T>> bridge_{DiracKernel<T>{}};
+};
+
+}  // namespace segpath
