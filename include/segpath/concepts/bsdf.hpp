@@ -80,4 +80,14 @@ template <class B, class S>
 concept Bsdf = Spectrum<S> && detail::HasBsdfEval<B, S> && detail::HasBsdfSample<B, S> &&
                detail::HasBsdfPdf<B, S>;
 
+/// Optional customization point: `b.lambertian_albedo(point)` returns the albedo when the BSDF
+/// at `point` is Lambertian (eval = albedo / pi for both directions above the geometric
+/// normal, sampled by cosine about the shading normal), nullopt otherwise. Propagation uses
+/// it to factorise clusters (the MMIS sum and the transfer no longer depend on the incoming
+/// segment); BSDFs without it are never factorised.
+template <class B, class S>
+concept HasLambertianAlbedo = requires(const B& b, const SurfacePoint<spectrum_scalar_t<S>>& p) {
+  { b.lambertian_albedo(p) } -> std::same_as<std::optional<S>>;
+};
+
 }  // namespace segpath

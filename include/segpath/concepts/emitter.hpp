@@ -45,6 +45,9 @@ struct EmissionSample {
   S radiance{};
   Scalar pdf_position = 0;
   Scalar pdf_direction = 0;
+  /// The light end is a Dirac (a point light's position, the sun's direction): only light
+  /// sampling can produce it, so MIS/MMIS give it full weight.
+  bool delta = false;
 };
 
 template <Real T>

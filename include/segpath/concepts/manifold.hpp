@@ -94,4 +94,13 @@ template <class M>
 concept Manifold = detail::HasScalar<M> && detail::HasArea<M> && detail::HasSampleArea<M> &&
                    detail::HasIntersect<M> && detail::HasVisible<M>;
 
+/// Optional customization point: `m.canonical_position(point)` maps a point to the one
+/// representative of its equivalence class, for manifolds whose positions are not unique
+/// (a periodic domain sampled in its universal cover). Clustering keys endpoints by it, so
+/// all images of a point share a cluster. Without it, the position itself is used.
+template <class M>
+concept HasCanonicalPosition = requires(const M& m, const SurfacePoint<typename M::Scalar>& p) {
+  { m.canonical_position(p) } -> std::convertible_to<Vec3<typename M::Scalar>>;
+};
+
 }  // namespace segpath

@@ -134,7 +134,7 @@ class DirectionalLight {
   [[nodiscard]] std::optional<EmissionSample<S>> sample_emission(
       const EmissionSampleQuery<Scalar>& q) const noexcept {
     return EmissionSample<S>{point(), disk_.sample(-direction_, q.u_direction), irradiance_,
-                             Scalar(1), disk_.pdf()};
+                             Scalar(1), disk_.pdf(), true};
   }
 
   [[nodiscard]] EmissionPdf<Scalar> pdf_emission(const EmissionPdfQuery<Scalar>& q) const noexcept {

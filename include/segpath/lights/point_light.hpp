@@ -54,7 +54,7 @@ class PointLight {
       const EmissionSampleQuery<Scalar>& q) const noexcept {
     const Vec3<Scalar> direction = square_to_uniform_sphere(q.u_direction);
     return EmissionSample<S>{point(), direction, intensity_, Scalar(1),
-                             square_to_uniform_sphere_pdf<Scalar>()};
+                             square_to_uniform_sphere_pdf<Scalar>(), true};
   }
 
   [[nodiscard]] EmissionPdf<Scalar> pdf_emission(const EmissionPdfQuery<Scalar>& q) const noexcept {

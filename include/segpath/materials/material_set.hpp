@@ -75,6 +75,15 @@ class MaterialSet {
            (std::holds_alternative<Mirror<S>>(*m) || std::holds_alternative<Dielectric<S>>(*m));
   }
 
+  /// The albedo when the point's material is Lambertian (the optional Bsdf customization
+  /// point `lambertian_albedo`, concepts/bsdf.hpp), else nullopt.
+  [[nodiscard]] std::optional<S> lambertian_albedo(const SurfacePoint<Scalar>& p) const noexcept {
+    const Material<S>* m = find(p.material_id);
+    if (m == nullptr) return std::nullopt;
+    if (const auto* l = std::get_if<Lambertian<S>>(m)) return l->albedo;
+    return std::nullopt;
+  }
+
  private:
   /// f(alternative) through a switch (std::get_if never fails on the matching index).
   template <class F>

@@ -48,16 +48,24 @@ class Clustering {
   Clustering() = default;
 
   /// Clusters the endpoints of `segments` on `grid`. Endpoints that are not surface points
-  /// (pinholes, points at infinity) join no cluster.
-  void build(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments) {
+  /// (pinholes, points at infinity) join no cluster. `canonical` maps a point to the position
+  /// its voxel key is computed from: the identity, or for periodic domains (a flat torus) the
+  /// representative in the fundamental cell, so that all images of a point share a cluster.
+  template <class Canonical>
+  void build(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments, const Canonical& canonical) {
     refs_.clear();
     clusters_.clear();
     cluster_of_x_.assign(segments.size(), no_cluster);
     cluster_of_y_.assign(segments.size(), no_cluster);
     refs_.reserve(2 * segments.size());
+    auto key_of = [&](const SurfacePoint<T>& p) {
+      SurfacePoint<T> q = p;
+      q.position = canonical(p);
+      return grid.key(q);
+    };
     for (std::uint32_t i = 0; i < segments.size(); ++i) {
-      if (const auto kx = grid.key(segments[i].x); kx.valid) refs_.push_back({kx.key, i, 0});
-      if (const auto ky = grid.key(segments[i].y); ky.valid) refs_.push_back({ky.key, i, 1});
+      if (const auto kx = key_of(segments[i].x); kx.valid) refs_.push_back({kx.key, i, 0});
+      if (const auto ky = key_of(segments[i].y); ky.valid) refs_.push_back({ky.key, i, 1});
     }
     std::sort(refs_.begin(), refs_.end());
     for (std::uint32_t b = 0; b < refs_.size();) {
@@ -72,7 +80,7 @@ class Clustering {
       for (std::uint32_t r = b; r < e; ++r) {
         const Segment<T>& s = segments[refs_[r].segment];
         const SurfacePoint<T>& p = refs_[r].end == 0 ? s.x : s.y;
-        mean_position += p.position;
+        mean_position += canonical(p);
         mean_normal += p.normal;
         (refs_[r].end == 0 ? cluster_of_x_ : cluster_of_y_)[refs_[r].segment] = id;
       }
@@ -83,6 +91,10 @@ class Clustering {
       clusters_.push_back(c);
       b = e;
     }
+  }
+
+  void build(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments) {
+    build(grid, segments, [](const SurfacePoint<T>& p) { return p.position; });
   }
 
   [[nodiscard]] std::span<const Cluster<T>> clusters() const noexcept { return clusters_; }

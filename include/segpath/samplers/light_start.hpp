@@ -64,7 +64,7 @@ class LightStartSampler {
     const T pdf = pdf_emission * area_factor;
     if (!(pdf > T(0))) return out;
     const T cos_y = endpoint_cosine(s.y, direction);
-    out.emplace(s, direction, e->radiance * (cos_y * area_factor), pdf, e->radiance * (cos_y / pdf_emission), false);
+    out.emplace(s, direction, e->radiance * (cos_y * area_factor), pdf, e->radiance * (cos_y / pdf_emission), e->delta);
     return out;
   }
 

@@ -99,6 +99,14 @@ class PeriodicSlab {
   [[nodiscard]] const PeriodicSlabParameters<T>& parameters() const noexcept { return p_; }
 
   // ---- Manifold ----------------------------------------------------------------------
+  /// The image of a point in the fundamental cell [0, P)^2 (Manifold's optional
+  /// canonical_position): clustering treats the slab as the flat torus it is.
+  [[nodiscard]] Vec3<T> canonical_position(const SurfacePoint<T>& p) const noexcept {
+    const T px = p_.period;
+    return Vec3<T>(p.position.x - px * std::floor(p.position.x / px), p.position.y - px * std::floor(p.position.y / px),
+                   p.position.z);
+  }
+
   [[nodiscard]] T area() const noexcept { return T(2) * p_.period * p_.period; }
 
   /// u.x < 1/2 picks plane A, otherwise B (each has half the area); the point is uniform in
@@ -145,6 +153,8 @@ class PeriodicSlab {
       return at(q.point).sample(q);
     }
     [[nodiscard]] T pdf(const BsdfQuery<T>& q) const noexcept { return at(q.point).pdf(q); }
+    /// Both planes are Lambertian (the optional Bsdf customization point of concepts/bsdf.hpp).
+    [[nodiscard]] std::optional<T> lambertian_albedo(const SurfacePoint<T>& p) const noexcept { return at(p).albedo; }
 
    private:
     [[nodiscard]] Lambertian<T> at(const SurfacePoint<T>& p) const noexcept {
