@@ -169,3 +169,69 @@ TEST_CASE("the BDPF furnace test has the power to see a 1 % error", "[algorithms
   CHECK_FALSE(testing::student_t_test(good, expected).rejects(0.001));
   CHECK(testing::student_t_test(good, expected * 1.01).rejects(0.001));  // 1 % off is caught
 }
+
+TEST_CASE("every MMIS denominator includes every technique sample of its cluster", "[algorithms]") {
+  // Recompute D(s) (N39) for every pooled segment by enumerating ALL pooled segments as
+  // candidate technique samples, using only cluster ids — not the clusters' member lists the
+  // algorithm iterates over — and compare.
+  using Scn = PhotographedSlab<double>;
+  using Filter = SegmentFiltering<Scn>;
+  const Scn scene(furnace, 8);
+  for (bool factorise : {false, true}) {
+    FilteringOptions<double> o;
+    o.max_length = 5;
+    o.light_path_ratio = 0.75;
+    o.factorise = factorise;
+    const Filter filter(o);
+    typename Filter::Pool pool;
+    filter.build_pool(scene, 2, pool, SerialFor{});
+    Clustering<double> clustering;
+    filter.cluster(scene, filter.grid(0.4, 2), pool, clustering);
+    FilteringStats stats;
+    filter.compute_densities(scene, pool, clustering, stats, SerialFor{});
+
+    const auto bsdf = scene.bsdf();
+    const double n_light = double(filter.light_path_count(scene));
+    std::size_t checked = 0, with_techniques = 0;
+    for (std::uint32_t s = 0; s < pool.size(); ++s) {
+      const auto& seg = pool.segments[s];
+      const std::uint8_t f = pool.flags[s];
+      double d = 0;
+      int techniques = 0;
+      for (std::uint32_t t = 0; t < pool.size(); ++t) {
+        // A camera technique sample: a continued segment whose y shares s's x cluster.
+        if ((pool.flags[t] & Filter::camera_technique) && clustering.cluster_of_x(s) != no_cluster &&
+            clustering.cluster_of_y(t) == clustering.cluster_of_x(s) && !(f & Filter::delta_light)) {
+          const double k = clustering.clusters()[clustering.cluster_of_x(s)].kernel;
+          d += k * bsdf.pdf(BsdfQuery<double>{pool.segments[t].y, -pool.last_direction[t], pool.first_direction[s],
+                                              Transport::radiance}) *
+               solid_angle_to_area(1.0, seg.x, seg.y);
+          ++techniques;
+        }
+        // A light technique sample: a continued light segment whose x shares s's y cluster.
+        if ((pool.flags[t] & Filter::light_technique) && clustering.cluster_of_y(s) != no_cluster &&
+            clustering.cluster_of_x(t) == clustering.cluster_of_y(s) && seg.x.kind == PointKind::surface &&
+            !(f & (Filter::chain_segment | Filter::delta_light))) {
+          const double k = clustering.clusters()[clustering.cluster_of_y(s)].kernel;
+          d += k * bsdf.pdf(BsdfQuery<double>{pool.segments[t].x, -pool.last_direction[s], pool.first_direction[t],
+                                              Transport::importance}) *
+               solid_angle_to_area(1.0, seg.y, seg.x);
+          ++techniques;
+        }
+      }
+      if (f & Filter::sensor_segment) {
+        const auto p = scene.sensor().pdf(SensorQuery<double>{seg.x, pool.first_direction[s]});
+        d += p.position * p.direction * solid_angle_to_area(1.0, seg.x, seg.y);
+      }
+      if (seg.x.kind == PointKind::surface) {
+        const auto e = scene.emitter().pdf_emission(EmissionPdfQuery<double>{seg.y, -pool.last_direction[s]});
+        d += n_light * e.position * e.direction * solid_angle_to_area(1.0, seg.y, seg.x);
+      }
+      CHECK(pool.density[s] == Approx(d).epsilon(1e-12).margin(1e-300));
+      ++checked;
+      if (techniques > 1) ++with_techniques;
+    }
+    CHECK(checked > 500);
+    CHECK(with_techniques > checked / 4);  // the pools exercise clusters with several technique samples
+  }
+}

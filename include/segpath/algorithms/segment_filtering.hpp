@@ -130,6 +130,11 @@ class SegmentFiltering {
     return T(4.0 * sum / double(count));
   }
 
+  /// The voxel grid of an iteration: jittered from the iteration's own stream, or aligned.
+  [[nodiscard]] VoxelGrid<T> grid(T cell, std::uint64_t iteration) const {
+    return options_.jitter ? VoxelGrid<T>::jittered(cell, options_.seed, iteration) : VoxelGrid<T>(cell);
+  }
+
   /// The voxel size of `iteration` (>= 1) given the first.
   [[nodiscard]] T cell_size(T initial, std::uint64_t iteration) const {
     return ProgressiveRadius<T>(initial, options_.alpha).radius(iteration);
@@ -148,12 +153,7 @@ class SegmentFiltering {
     stats.cell_size = double(cell);
 
     Clustering<T> clustering;
-    const auto grid = options_.jitter ? VoxelGrid<T>::jittered(cell, options_.seed, iteration) : VoxelGrid<T>(cell);
-    if constexpr (HasCanonicalPosition<Scn>) {
-      clustering.build(grid, pool.segments, [&](const SurfacePoint<T>& p) { return scene.canonical_position(p); });
-    } else {
-      clustering.build(grid, pool.segments);
-    }
+    cluster(scene, grid(cell, iteration), pool, clustering);
     stats.clusters = clustering.clusters().size();
     compute_densities(scene, pool, clustering, stats, parallel_for);
 
@@ -183,7 +183,8 @@ class SegmentFiltering {
     return stats;
   }
 
- private:
+  // ---- The stages of one iteration, public for tests and instrumentation ------------------
+
   static constexpr std::uint8_t sensor_segment = 1;     ///< s_1 of a camera path
   static constexpr std::uint8_t camera_born = 2;        ///< drawn by the camera side
   static constexpr std::uint8_t chain_segment = 4;      ///< contains delta vertices: (area x, solid angle x) measure
@@ -216,6 +217,7 @@ class SegmentFiltering {
     std::uint8_t flags = 0;
   };
 
+  /// N_L: light paths per iteration.
   std::uint64_t light_path_count(const Scn& scene) const {
     if (options_.mode == FilteringMode::mvf) return 0;
     return std::uint64_t(std::llround(double(options_.light_path_ratio) * double(scene.sensor().pixel_count())));
@@ -223,6 +225,8 @@ class SegmentFiltering {
 
   static constexpr std::size_t chunk_count = 64;
 
+  /// Step 1: the camera and light paths of an iteration, pooled (camera paths in pixel
+  /// order, then light paths in index order).
   template <class P>
   void build_pool(const Scn& scene, std::uint64_t iteration, Pool& pool, const P& parallel_for) const {
     const std::uint32_t pixels = scene.sensor().pixel_count();
@@ -261,6 +265,7 @@ class SegmentFiltering {
     (void)iteration;
   }
 
+ private:
   /// One camera path: the sensor segment, then approximate successors (N33) from each
   /// non-delta end; delta bounces extend the current segment into a chain. MVF and BDPF go
   /// to max_length segments (delta bounces count), PhF keeps only the sensor segment.
@@ -389,6 +394,16 @@ class SegmentFiltering {
     }
   }
 
+ public:
+  /// Clusters a pool's endpoints on `grid` (by canonical position where the scene has one).
+  void cluster(const Scn& scene, const VoxelGrid<T>& grid, const Pool& pool, Clustering<T>& clustering) const {
+    if constexpr (HasCanonicalPosition<Scn>) {
+      clustering.build(grid, pool.segments, [&](const SurfacePoint<T>& p) { return scene.canonical_position(p); });
+    } else {
+      clustering.build(grid, pool.segments);
+    }
+  }
+
   /// Step 4: the MMIS denominators D(s) of every pooled segment (N39).
   template <class P>
   void compute_densities(const Scn& scene, Pool& pool, const Clustering<T>& clustering, FilteringStats& stats,
@@ -511,6 +526,7 @@ class SegmentFiltering {
     });
   }
 
+ private:
   /// Where every segment ending in a cluster has a Lambertian end with one normal, and every
   /// segment starting there leaves above it, f_r(s, s') = chain(s) albedo(y_s) / pi: the
   /// propagation sum is computed once per cluster.
