@@ -3,6 +3,8 @@
 // rejected.
 #include <segpath/algorithms/segment_filtering.hpp>
 #include <segpath/sensors/pinhole_camera.hpp>
+#include <segpath/testing/integrate.hpp>
+#include <segpath/testing/lit_plane.hpp>
 #include <segpath/testing/periodic_slab.hpp>
 #include <segpath/testing/statistics.hpp>
 
@@ -234,4 +236,68 @@ TEST_CASE("every MMIS denominator includes every technique sample of its cluster
     CHECK(checked > 500);
     CHECK(with_techniques > checked / 4);  // the pools exercise clusters with several technique samples
   }
+}
+
+namespace {
+
+/// The point-lit plane through a 4 x 4 pinhole half a unit above it, looking down.
+class PhotographedPointLitPlane : public testing::PointLitPlane<double> {
+ public:
+  PhotographedPointLitPlane()
+      : testing::PointLitPlane<double>(testing::PointLitPlaneParameters<double>{2, 1, 1, 0.6}, {{0, 0}}),
+        camera_([] {
+          PinholeCameraParameters<double> c;
+          c.position = {0, 0, 0.5};
+          c.forward = {0, 0, -1};
+          c.right = {1, 0, 0};
+          c.up = {0, 1, 0};
+          c.width = c.height = 4;
+          c.fov_x_degrees = c.fov_y_degrees = 20;
+          return c;
+        }()) {}
+  [[nodiscard]] const PinholeCamera<double>& sensor() const noexcept { return camera_; }
+
+ private:
+  PinholeCamera<double> camera_;
+};
+
+}  // namespace
+
+TEST_CASE("BDPF is consistent under the point-lit plane: halving the voxel quarters the bias", "[algorithms][stat]") {
+  // Single-bounce light: the kernel estimate blurs the irradiance over a voxel; with
+  // E'' < 0 under the light the blur lowers the image by ~ (h^2 / 24) Laplacian(E) rho / pi.
+  const PhotographedPointLitPlane scene;
+  double expected = 0;  // the image mean: the closed form averaged over every pixel
+  for (std::uint32_t p = 0; p < 16; ++p)
+    expected += testing::integrate_2d(
+                    [&](glm::dvec2 u) {
+                      const auto ray = scene.sensor().sample_ray(SensorSampleQuery<double>{p, Vec2<double>(0.5), Vec2<double>(u.x, u.y)});
+                      const double t = -ray->origin.position.z / ray->direction.z;
+                      return scene.radiance_at(ray->origin.position + ray->direction * t);
+                    },
+                    {0, 0}, {1, 1}, 8, 8) /
+                16;
+  FilteringOptions<double> o;
+  o.max_length = 2;
+  o.light_path_ratio = 4096;  // photons near the axis: N_L / (4 pi) per unit area
+  o.seed = 5;
+  const SegmentFiltering<PhotographedPointLitPlane> bdpf(o);
+  auto bias = [&](double cell) {
+    testing::RunningStats stats;
+    for (std::uint64_t it = 1; it <= 120; ++it) {
+      Framebuffer<double> image(4, 4);
+      DropCounters drops;
+      bdpf.render_iteration(scene, it, cell, image, drops);
+      double mean = 0;
+      for (auto v : image.pixels()) mean += v / 16;
+      stats.add(mean);
+    }
+    return std::pair{stats.mean() - expected, stats.standard_error()};
+  };
+  const auto [coarse, coarse_se] = bias(0.3);
+  const auto [fine, fine_se] = bias(0.15);
+  INFO("bias at h = 0.3: " << coarse << " +- " << coarse_se << ", at h/2: " << fine << " +- " << fine_se);
+  CHECK(coarse < -5 * coarse_se);  // the blur is real and has the predicted sign
+  CHECK(std::abs(fine - coarse / 4) < 5 * std::sqrt(fine_se * fine_se + coarse_se * coarse_se / 16));
+  CHECK(std::abs(fine) < std::abs(coarse));
 }
