@@ -55,7 +55,7 @@ class PathTracer {
     }
     S beta = slots[0]->weight;
     bool reached_by_bsdf = false;  // false: the sensor segment or a delta lobe (no NEE rival)
-    const auto emitter = scene.emitter();
+    const auto& emitter = scene.emitter();
     for (std::size_t length = 1, current = 0;; ++length, current ^= 1u) {
       const SegmentSample<S>& s = *slots[current];
       const S emitted = emission_factor(scene, s.segment, s.direction);

@@ -158,28 +158,17 @@ class SegmentFiltering {
     compute_densities(scene, pool, clustering, stats, parallel_for);
 
     // Propagation (Algorithm 1) and the per-pixel gather (N40).
-    std::vector<T> weighted_geometry(pool.size());
-    for (std::size_t i = 0; i < pool.size(); ++i)
-      weighted_geometry[i] = pool.density[i] > T(0) ? pool.geometry[i] / pool.density[i] : T(0);
-    std::vector<std::uint8_t> factorised;
-    std::vector<S> diffuse;
-    if (options_.factorise) transfer_factorisation(scene, pool, clustering, factorised, diffuse, stats);
-    const auto bsdf = scene.bsdf();
-    auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
-      const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});
-      return f * pool.chain[s];
-    };
-    const PropagationInputs<S, decltype(link)> inputs{clustering, pool.emitted, weighted_geometry, link, diffuse, factorised};
-    std::vector<S> radiance, scratch;
-    propagate(inputs, int(options_.max_length) - 1, radiance, scratch, parallel_for);
+    std::vector<S> radiance;
+    std::vector<T> weighted_geometry;
+    propagate_pool(scene, pool, clustering, int(options_.max_length) - 1, radiance, weighted_geometry, stats, parallel_for);
     for (std::size_t i = 0; i < pool.size(); ++i) {
       if (!(pool.flags[i] & sensor_segment)) continue;
       const S value = radiance[i] * (pool.sensor_weight[i] * weighted_geometry[i]);
       if (is_finite(value)) image.add(pool.pixel[i], value);
       else drops.add(DropReason::non_finite);
     }
-    stats.bytes_per_segment = pool.bytes_per_segment() + clustering.bytes_per_segment() +
-                              sizeof(T) + 2 * sizeof(S) + (factorised.empty() ? 0 : sizeof(S));
+    stats.bytes_per_segment = pool.bytes_per_segment() + clustering.bytes_per_segment() + sizeof(T) +
+                              (options_.factorise ? 3 : 2) * sizeof(S);
     return stats;
   }
 
@@ -243,7 +232,7 @@ class SegmentFiltering {
     auto reserve = [&](auto& v) { v.reserve(total); };
     reserve(pool.segments), reserve(pool.first_direction), reserve(pool.last_direction), reserve(pool.chain);
     reserve(pool.geometry), reserve(pool.sensor_weight), reserve(pool.pixel), reserve(pool.flags);
-    const auto emitter = scene.emitter();
+    const auto& emitter = scene.emitter();
     auto append = [&](const Record& r) {
       pool.segments.push_back(r.segment);
       pool.first_direction.push_back(r.first_direction);
@@ -288,7 +277,7 @@ class SegmentFiltering {
     T distance = std::sqrt(first->segment.length_squared());
     S chain(T(1));
     std::size_t pieces = 1;
-    const auto bsdf = scene.bsdf();
+    const auto& bsdf = scene.bsdf();
     for (;;) {
       // Follow delta bounces: the segment continues through them.
       std::optional<BsdfSample<S>> next;
@@ -352,7 +341,7 @@ class SegmentFiltering {
     r.flags = light_start | (first->delta ? delta_light : 0);
     // G in the segment's product measure; for a distant light the end at infinity drops 1/d^2.
     r.geometry = geometry_term(first->segment);
-    const auto bsdf = scene.bsdf();
+    const auto& bsdf = scene.bsdf();
     for (std::size_t pieces = 1;; ++pieces) {
       const SurfacePoint<T>& x = r.segment.x;
       std::optional<BsdfSample<S>> prev;
@@ -384,7 +373,7 @@ class SegmentFiltering {
       return std::nullopt;
     } else {
       if (begin == end) return std::nullopt;
-      const auto bsdf = scene.bsdf();
+      const auto& bsdf = scene.bsdf();
       const Vec3<T> n = end_of(refs[begin].segment).shading_normal;
       for (std::uint32_t r = begin; r < end; ++r) {
         const SurfacePoint<T>& p = end_of(refs[r].segment);
@@ -395,6 +384,29 @@ class SegmentFiltering {
   }
 
  public:
+  /// Step 5: `iterations` Jacobi iterations of propagation over the clustered pool, using the
+  /// factorised O(n + m) sums where the options allow and the cluster qualifies. Returns L
+  /// and G w per segment.
+  template <class P = SerialFor>
+  void propagate_pool(const Scn& scene, const Pool& pool, const Clustering<T>& clustering, int iterations,
+                      std::vector<S>& radiance, std::vector<T>& weighted_geometry, FilteringStats& stats,
+                      const P& parallel_for = {}) const {
+    weighted_geometry.resize(pool.size());
+    for (std::size_t i = 0; i < pool.size(); ++i)
+      weighted_geometry[i] = pool.density[i] > T(0) ? pool.geometry[i] / pool.density[i] : T(0);
+    std::vector<std::uint8_t> factorised;
+    std::vector<S> diffuse;
+    if (options_.factorise) transfer_factorisation(scene, pool, clustering, factorised, diffuse, stats);
+    const auto& bsdf = scene.bsdf();
+    auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
+      const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});
+      return f * pool.chain[s];
+    };
+    const PropagationInputs<S, decltype(link)> inputs{clustering, pool.emitted, weighted_geometry, link, diffuse, factorised};
+    std::vector<S> scratch;
+    propagate(inputs, iterations, radiance, scratch, parallel_for);
+  }
+
   /// Clusters a pool's endpoints on `grid` (by canonical position where the scene has one).
   void cluster(const Scn& scene, const VoxelGrid<T>& grid, const Pool& pool, Clustering<T>& clustering) const {
     if constexpr (HasCanonicalPosition<Scn>) {
@@ -410,7 +422,7 @@ class SegmentFiltering {
                          const P& parallel_for) const {
     const auto clusters = clustering.clusters();
     const auto refs = clustering.refs();
-    const auto bsdf = scene.bsdf();
+    const auto& bsdf = scene.bsdf();
     std::vector<T> camera_sum(pool.size(), T(0)), light_sum(pool.size(), T(0));
     std::vector<std::uint64_t> pairs(clusters.size(), 0);
     std::vector<std::uint8_t> camera_fact(clusters.size(), 0), light_fact(clusters.size(), 0);
@@ -425,6 +437,15 @@ class SegmentFiltering {
         std::optional<Vec3<T>> common;
         if (options_.factorise) common = common_lambertian_normal(scene, y_of, refs, cl.middle, cl.end);
         camera_fact[c] = common ? 1 : 0;
+        // The technique samples whose incoming direction the (one-sided) BSDF accepts.
+        const SurfacePoint<T>& any_y = pool.segments[refs[cl.middle].segment].y;
+        std::uint32_t valid_camera = 0;
+        if (common)
+          for (std::uint32_t q = cl.middle; q < cl.end; ++q) {
+            const std::uint32_t t = refs[q].segment;
+            if ((pool.flags[t] & camera_technique) && glm::dot(-pool.last_direction[t], any_y.normal) > one_sided_epsilon<T>)
+              ++valid_camera;
+          }
         for (std::uint32_t r = cl.begin; r < cl.middle; ++r) {
           const std::uint32_t sp = refs[r].segment;
           // Any segment starting here (camera- or light-born) but a Dirac light end.
@@ -433,14 +454,8 @@ class SegmentFiltering {
           T sum = T(0);
           if (common) {
             // Lambertian technique points with one normal: p_w = cos / pi for every t (+ one-sided checks).
-            const SurfacePoint<T>& any = pool.segments[refs[cl.middle].segment].y;
-            std::uint32_t valid = 0;
-            for (std::uint32_t q = cl.middle; q < cl.end; ++q) {
-              const std::uint32_t t = refs[q].segment;
-              if ((pool.flags[t] & camera_technique) && glm::dot(-pool.last_direction[t], any.normal) > one_sided_epsilon<T>) ++valid;
-            }
             const T cosine = glm::dot(w, *common);
-            if (glm::dot(w, any.normal) > one_sided_epsilon<T> && cosine > T(0)) sum = T(valid) * cosine * inv_pi<T>;
+            if (glm::dot(w, any_y.normal) > one_sided_epsilon<T> && cosine > T(0)) sum = T(valid_camera) * cosine * inv_pi<T>;
             pairs[c] += 1;
           } else {
             for (std::uint32_t q = cl.middle; q < cl.end; ++q) {
@@ -465,6 +480,14 @@ class SegmentFiltering {
         std::optional<Vec3<T>> common;
         if (options_.factorise) common = common_lambertian_normal(scene, x_of, refs, cl.begin, cl.middle);
         light_fact[c] = common ? 1 : 0;
+        const SurfacePoint<T>& any_x = pool.segments[refs[cl.begin].segment].x;
+        std::uint32_t valid_light = 0;
+        if (common)
+          for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
+            const std::uint32_t t = refs[q].segment;
+            if ((pool.flags[t] & light_technique) && glm::dot(pool.first_direction[t], any_x.normal) > one_sided_epsilon<T>)
+              ++valid_light;
+          }
         for (std::uint32_t r = cl.middle; r < cl.end; ++r) {
           const std::uint32_t sp = refs[r].segment;
           // Light predecessors end their ray at a surface hit: they never draw a segment whose
@@ -473,14 +496,8 @@ class SegmentFiltering {
           const Vec3<T> to_sensor = -pool.last_direction[sp];
           T sum = T(0);
           if (common) {
-            const SurfacePoint<T>& any = pool.segments[refs[cl.begin].segment].x;
-            std::uint32_t valid = 0;
-            for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
-              const std::uint32_t t = refs[q].segment;
-              if ((pool.flags[t] & light_technique) && glm::dot(pool.first_direction[t], any.normal) > one_sided_epsilon<T>) ++valid;
-            }
             const T cosine = glm::dot(to_sensor, *common);
-            if (glm::dot(to_sensor, any.normal) > one_sided_epsilon<T> && cosine > T(0)) sum = T(valid) * cosine * inv_pi<T>;
+            if (glm::dot(to_sensor, any_x.normal) > one_sided_epsilon<T> && cosine > T(0)) sum = T(valid_light) * cosine * inv_pi<T>;
             pairs[c] += 1;
           } else {
             for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
@@ -536,7 +553,7 @@ class SegmentFiltering {
     factorised.assign(clustering.clusters().size(), 0);
     diffuse.assign(pool.size(), S(T(0)));
     if constexpr (HasLambertianAlbedo<B, S>) {
-      const auto bsdf = scene.bsdf();
+      const auto& bsdf = scene.bsdf();
       const auto refs = clustering.refs();
       for (std::size_t c = 0; c < factorised.size(); ++c) {
         const Cluster<T>& cl = clustering.clusters()[c];

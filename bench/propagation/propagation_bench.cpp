@@ -1,0 +1,192 @@
+// Propagation (Algorithm 1) costs, on BDPF pools of the periodic slab seen through a pinhole:
+//  - one Jacobi iteration against the number of segments, 1e4 .. 1e6: the log-log slope (of
+//    CPU time) is printed at the end (target <= 1.1: linear);
+//  - MMIS denominators + one iteration against cluster occupancy, factorised or not;
+//  - bytes per segment (counter);
+//  - the naive recursive MMIS estimator (N39) against propagation at depth 5 on one pool
+//    (target: propagation >= 1000x faster).
+//   build/bench/bench_propagation_propagation_bench
+#include <segpath/algorithms/segment_filtering.hpp>
+#include <segpath/estimators/recursive_mmis.hpp>
+#include <segpath/sensors/pinhole_camera.hpp>
+#include <segpath/testing/periodic_slab.hpp>
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <vector>
+
+namespace {
+
+using namespace segpath;
+using T = double;
+
+class Slab : public testing::PeriodicSlab<T> {
+ public:
+  explicit Slab(std::uint32_t size)
+      : testing::PeriodicSlab<T>(testing::PeriodicSlabParameters<T>{1.0, 4.0, 0.7, 0.4, 0.5, 0.6}, {testing::SlabProbe<T>{}}),
+        camera_([&] {
+          PinholeCameraParameters<T> c;
+          c.position = {0.3, 0.2, 0.6};
+          c.forward = {0, 0, -1};
+          c.right = {1, 0, 0};
+          c.up = {0, 1, 0};
+          c.width = c.height = size;
+          c.fov_x_degrees = c.fov_y_degrees = 90;
+          return c;
+        }()) {}
+  [[nodiscard]] const PinholeCamera<T>& sensor() const noexcept { return camera_; }
+
+ private:
+  PinholeCamera<T> camera_;
+};
+
+using Filter = SegmentFiltering<Slab>;
+
+/// A pool with everything propagation needs, built once per size.
+struct Prepared {
+  Slab scene;
+  Filter filter;
+  Filter::Pool pool;
+  Clustering<T> clustering;
+  std::vector<T> weighted_geometry;
+  FilteringStats stats;
+
+  Prepared(std::uint32_t size, T cell, bool factorise, std::size_t max_length = 6)
+      : scene(size), filter([&] {
+          FilteringOptions<T> o;
+          o.max_length = max_length;
+          o.light_path_ratio = 0.25;
+          o.factorise = factorise;
+          return o;
+        }()) {
+    filter.build_pool(scene, 1, pool, SerialFor{});
+    filter.cluster(scene, filter.grid(cell, 1), pool, clustering);
+    filter.compute_densities(scene, pool, clustering, stats, SerialFor{});
+    weighted_geometry.resize(pool.size());
+    for (std::size_t i = 0; i < pool.size(); ++i)
+      weighted_geometry[i] = pool.density[i] > 0 ? pool.geometry[i] / pool.density[i] : 0;
+  }
+  auto link() const {
+    return [this](std::uint32_t s, std::uint32_t sp) {
+      return scene.bsdf().eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp],
+                                            Transport::radiance}) *
+             pool.chain[s];
+    };
+  }
+};
+
+/// Image side for a pool of about n segments (about 3.6 segments per camera path here).
+std::uint32_t side_for(double n) { return std::uint32_t(std::sqrt(n / 3.6)); }
+
+void BM_propagation_iteration(benchmark::State& state) {
+  // Voxel size ~ 4 pixel footprints, as in BDPF: the occupancy stays constant with n.
+  const std::uint32_t side = side_for(double(state.range(0)));
+  const Prepared p(side, 0.6 * 4.0 / side, false);
+  const auto link = p.link();
+  const PropagationInputs<T, decltype(link)> in{p.clustering, p.pool.emitted, p.weighted_geometry, link};
+  std::vector<T> radiance, scratch;
+  for (auto _ : state) {
+    propagate(in, 1, radiance, scratch);
+    benchmark::DoNotOptimize(radiance.data());
+  }
+  state.counters["segments"] = double(p.pool.size());
+  state.counters["per_cluster"] = double(p.pool.size()) / double(p.clustering.clusters().size());
+  state.counters["bytes_per_segment"] = double(p.pool.bytes_per_segment() + p.clustering.bytes_per_segment() + 3 * sizeof(T));
+  state.SetComplexityN(std::int64_t(p.pool.size()));
+}
+BENCHMARK(BM_propagation_iteration)->Arg(10000)->Arg(30000)->Arg(100000)->Arg(300000)->Arg(1000000)->Unit(benchmark::kMillisecond)->Complexity();
+
+void BM_occupancy(benchmark::State& state) {
+  // Fixed pool, growing voxels: denominators (N39) + one iteration, factorised or not.
+  const double cell = double(state.range(0)) / 100.0;
+  const bool factorise = state.range(1) != 0;
+  Prepared p(128, T(cell), factorise);
+  std::vector<T> radiance, scratch;
+  for (auto _ : state) {
+    FilteringStats stats;
+    p.filter.compute_densities(p.scene, p.pool, p.clustering, stats, SerialFor{});
+    std::vector<T> weighted_geometry;
+    p.filter.propagate_pool(p.scene, p.pool, p.clustering, 1, radiance, weighted_geometry, stats);
+    benchmark::DoNotOptimize(radiance.data());
+  }
+  state.counters["per_cluster"] = double(p.pool.size()) / double(p.clustering.clusters().size());
+  state.counters["pair_evaluations"] = double(p.stats.pair_evaluations);
+  state.SetLabel(factorise ? "factorised" : "O(n m) sums");
+}
+BENCHMARK(BM_occupancy)->ArgsProduct({{5, 10, 20, 40}, {0, 1}})->Unit(benchmark::kMillisecond);
+
+void BM_naive_vs_propagation(benchmark::State& state) {
+  // A pool small enough for the exponential recursion: 12 x 12 pixels, large voxels.
+  const bool naive = state.range(0) != 0;
+  const Prepared p(12, 1.0, false);
+  const auto link = p.link();
+  std::vector<std::uint32_t> sensor;
+  for (std::uint32_t i = 0; i < p.pool.size(); ++i)
+    if (p.pool.flags[i] & Filter::sensor_segment) sensor.push_back(i);
+  const PropagationInputs<T, decltype(link)> in{p.clustering, p.pool.emitted, p.weighted_geometry, link};
+  std::vector<T> radiance, scratch;
+  for (auto _ : state) {
+    T total = 0;
+    if (naive) {
+      for (auto s : sensor) total += recursive_mmis_radiance<T>(p.clustering, p.pool.emitted, p.weighted_geometry, link, s, 5);
+    } else {
+      propagate(in, 5, radiance, scratch);
+      for (auto s : sensor) total += radiance[s];
+    }
+    benchmark::DoNotOptimize(total);
+  }
+  state.counters["segments"] = double(p.pool.size());
+  state.SetLabel(naive ? "naive recursion (N39)" : "propagation");
+}
+BENCHMARK(BM_naive_vs_propagation)->Arg(1)->Arg(0)->Unit(benchmark::kMicrosecond);
+
+/// Console output plus the derived figures: the log-log slope of time against segments, and
+/// the naive / propagation ratio.
+class FiguresReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const auto& r : runs) {
+      if (r.run_type != Run::RT_Iteration || r.iterations == 0) continue;
+      const std::string name = r.benchmark_name();
+      const double t = r.GetAdjustedCPUTime();
+      if (name.rfind("BM_propagation_iteration/", 0) == 0 && r.counters.count("segments"))
+        scaling_.emplace_back(r.counters.at("segments").value, t);
+      if (name == "BM_naive_vs_propagation/1") naive_ = t;
+      if (name == "BM_naive_vs_propagation/0") propagation_ = t;
+    }
+    ConsoleReporter::ReportRuns(runs);
+  }
+  void Finalize() override {
+    ConsoleReporter::Finalize();
+    if (scaling_.size() >= 2) {
+      double sx = 0, sy = 0, sxx = 0, sxy = 0;
+      for (const auto& [n, t] : scaling_) {
+        const double x = std::log(n), y = std::log(t);
+        sx += x, sy += y, sxx += x * x, sxy += x * y;
+      }
+      const double m = double(scaling_.size());
+      std::printf("log-log slope of propagation time against segments: %.3f (target <= 1.1)\n",
+                  (m * sxy - sx * sy) / (m * sxx - sx * sx));
+    }
+    if (naive_ > 0 && propagation_ > 0)
+      std::printf("naive recursion / propagation at depth 5: %.0fx (target >= 1000x)\n", naive_ / propagation_);
+  }
+
+ private:
+  std::vector<std::pair<double, double>> scaling_;
+  double naive_ = 0, propagation_ = 0;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  FiguresReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  benchmark::Shutdown();
+  return 0;
+}

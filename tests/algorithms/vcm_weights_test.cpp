@@ -1,0 +1,287 @@
+// VCM / BDPT / BPM MIS weights against the brute-force heuristic over explicit full-path
+// densities (every technique's density built from the samplers' pdf functions), options
+// validation, and the hash grid against a linear scan.
+#include <segpath/algorithms/vcm.hpp>
+#include <segpath/kernels/hash_grid.hpp>
+#include <segpath/sensors/pinhole_camera.hpp>
+#include <segpath/testing/sphere_interior.hpp>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "support/catch.hpp"
+
+using namespace segpath;
+
+namespace {
+
+/// The sphere interior seen through a pinhole at its centre (so t = 1 techniques exist).
+template <class Base>
+class PinholeView : public Base {
+ public:
+  using T = typename Base::Scalar;
+  template <class... Args>
+  PinholeView(const PinholeCameraParameters<T>& camera, Args&&... args)
+      : Base(std::forward<Args>(args)...), camera_(camera) {}
+  [[nodiscard]] const PinholeCamera<T>& sensor() const noexcept { return camera_; }
+
+ private:
+  PinholeCamera<T> camera_;
+};
+
+using Sphere = PinholeView<testing::SphereInterior<double>>;
+
+Sphere make_sphere() {
+  testing::SphereInteriorParameters<double> p;
+  p.radius = 1.3;
+  p.emission_gradient = {0.4, 0, -0.5};
+  p.albedo_mean = 0.5;
+  p.albedo_gradient = {0, 0.2, 0.15};
+  PinholeCameraParameters<double> c;
+  c.position = {0.1, -0.2, 0.05};
+  c.forward = {0, 0, 1};
+  c.right = {1, 0, 0};
+  c.up = {0, 1, 0};
+  c.width = 3;
+  c.height = 2;
+  c.fov_x_degrees = 60;
+  c.fov_y_degrees = 50;
+  return Sphere(c, p, std::vector<Vec3<double>>{{0, 0, 1}});
+}
+
+enum class Kind { emission, nee, connect, camera, merge };
+
+struct Technique {
+  Kind kind;
+  std::size_t index;  ///< camera ends for connect/merge
+  double density;     ///< n_i p_i of the whole path
+};
+
+/// Every technique's full-path density for the path v[0] (pinhole) .. v[k] (light end).
+struct BruteForce {
+  BruteForce(const Sphere& s, std::uint32_t p, double n, double r) : scene(s), pixel(p), light_paths(n), radius(r) {}
+  const Sphere& scene;
+  std::uint32_t pixel;
+  double light_paths;
+  double radius;
+  SensorStartSampler<Sphere> sensor_start;
+  NextSegmentSampler<Sphere, DiracKernel<double>> next{DiracKernel<double>{}};
+  LightStartSampler<Sphere> light_start;
+  LightNextSegmentSampler<Sphere, DiracKernel<double>> light_next{DiracKernel<double>{}};
+  LightBridgeSampler<Sphere, DiracKernel<double>> light_bridge{DiracKernel<double>{}};
+  SensorBridgeSampler<Sphere, DiracKernel<double>> sensor_bridge{DiracKernel<double>{}};
+
+  /// Camera-side density of segment i (v[i-1], v[i]).
+  double camera(const std::vector<SurfacePoint<double>>& v, std::size_t i) const {
+    const Segment<double> s{v[i - 1], v[i]};
+    if (i == 1) return sensor_start.pdf(scene, {pixel}, s);
+    const Segment<double> prev{v[i - 2], v[i - 1]};
+    return next.pdf(scene, {prev}, s);
+  }
+  /// Light-side density of segment i (v[i-1], v[i]).
+  double light(const std::vector<SurfacePoint<double>>& v, std::size_t i) const {
+    const Segment<double> s{v[i - 1], v[i]};
+    if (i + 1 == v.size()) return light_start.pdf(scene, {}, s);
+    const Segment<double> after{v[i], v[i + 1]};
+    return light_next.pdf(scene, {after}, s);
+  }
+
+  std::vector<Technique> techniques(const std::vector<SurfacePoint<double>>& v, VcmMode mode) const {
+    const std::size_t k = v.size() - 1;
+    const bool vc = mode == VcmMode::bdpt || mode == VcmMode::vcm;
+    const bool vm = mode == VcmMode::bpm || mode == VcmMode::vcm;
+    auto camera_prefix = [&](std::size_t n) {
+      double p = 1;
+      for (std::size_t i = 1; i <= n; ++i) p *= camera(v, i);
+      return p;
+    };
+    auto light_suffix = [&](std::size_t from) {  // segments from..k sampled from the light
+      double p = 1;
+      for (std::size_t i = from; i <= k; ++i) p *= light(v, i);
+      return p;
+    };
+    std::vector<Technique> out;
+    if (vc) {
+      out.push_back({Kind::emission, k, camera_prefix(k)});
+      const Segment<double> prev{v[k - 2], v[k - 1]};
+      out.push_back({Kind::nee, k - 1, camera_prefix(k - 1) * light_bridge.pdf(scene, {prev}, Segment<double>{v[k - 1], v[k]})});
+      for (std::size_t c = 1; c + 2 <= k; ++c) out.push_back({Kind::connect, c, camera_prefix(c) * light_suffix(c + 2)});
+      const Segment<double> second{v[1], v[2]};
+      out.push_back({Kind::camera, 0,
+                     light_paths * sensor_bridge.pdf(scene, {second}, Segment<double>{v[0], v[1]}) * light_suffix(2)});
+    }
+    if (vm)
+      for (std::size_t i = 1; i + 1 <= k; ++i)
+        out.push_back({Kind::merge, i, light_paths * pi<double> * radius * radius * camera_prefix(i) * light_suffix(i + 1)});
+    return out;
+  }
+};
+
+}  // namespace
+
+TEST_CASE("VCM, BDPT and BPM weights equal the brute-force heuristic over full-path densities", "[algorithms][vcm]") {
+  const Sphere scene = make_sphere();
+  const double radius = 0.05;
+  const std::uint32_t light_paths = 7;
+  Pcg32 rng(2024, 5);
+  std::size_t checked = 0;
+  for (const VcmMode mode : {VcmMode::bdpt, VcmMode::vcm, VcmMode::bpm}) {
+    for (const MisHeuristic h : {MisHeuristic::balance, MisHeuristic::power}) {
+      VcmOptions o;
+      o.mode = mode;
+      o.heuristic = h;
+      o.max_length = 12;
+      const VertexConnectionMerging<Sphere> vcm(o);
+      const auto it = vcm.iteration_constants(scene, radius, light_paths);
+      REQUIRE(it.camera_connectable == (mode != VcmMode::bpm));
+      for (int trial = 0; trial < 60; ++trial) {
+        const std::size_t k = 2 + std::size_t(trial % 6);
+        // v[1] through a random pixel; the other ends uniform on the sphere.
+        const std::uint32_t pixel = rng.next_u32() % scene.sensor().pixel_count();
+        const auto ray = scene.sensor().sample_ray({pixel, rng.uniform2<double>(), rng.uniform2<double>()});
+        REQUIRE(ray);
+        const auto hit = scene.intersect({Ray<double>{ray->origin.position, ray->direction}});
+        REQUIRE(hit);
+        std::vector<SurfacePoint<double>> v{ray->origin, hit->point};
+        while (v.size() <= k) v.push_back(scene.sample_area({rng.uniform2<double>()})->point);
+        const BruteForce bf(scene, pixel, double(light_paths), radius);
+        const auto techniques = bf.techniques(v, mode);
+        double denominator = 0;
+        for (const auto& t : techniques) denominator += mis_term(t.density, h);
+        REQUIRE(denominator > 0);
+
+        std::vector<VcmVertex<double>> cam(k + 1), light(k + 1);
+        double weight_sum = 0;
+        for (const auto& t : techniques) {
+          double w = -1;
+          const std::span<const SurfacePoint<double>> points(v);
+          switch (t.kind) {
+            case Kind::emission: {
+              REQUIRE(vcm.camera_vertices(scene, it, points.first(k + 1), cam) == k);
+              w = vcm.emission_weight(scene, it, v[k - 1], cam[k - 1]);
+              break;
+            }
+            case Kind::nee: {
+              REQUIRE(vcm.camera_vertices(scene, it, points.first(k), cam) == k - 1);
+              const Segment<double> prev{v[k - 2], v[k - 1]};
+              const Segment<double> s{v[k - 1], v[k]};
+              SegmentSample<double> e{s, s.direction(), 0, bf.light_bridge.pdf(scene, {prev}, s), 0, false};
+              w = vcm.nee_weight(scene, it, cam[k - 2], e);
+              break;
+            }
+            case Kind::connect:
+            case Kind::merge: {
+              const std::size_t c = t.index;
+              REQUIRE(vcm.camera_vertices(scene, it, points.first(c + 1), cam) == c);
+              // Light ends from v[k] down to v[c + 1] (connect) or v[c] (merge).
+              const std::size_t last = t.kind == Kind::connect ? c + 1 : c;
+              std::vector<SurfacePoint<double>> reversed(v.rbegin(), v.rbegin() + std::ptrdiff_t(k - last + 1));
+              REQUIRE(vcm.light_vertices(scene, it, reversed, light) == k - last);
+              w = t.kind == Kind::connect ? vcm.connection_weight(scene, it, cam[c - 1], light[k - last - 1])
+                                          : vcm.merge_weight(scene, it, cam[c - 1], light[k - last - 1]);
+              break;
+            }
+            case Kind::camera: {
+              std::vector<SurfacePoint<double>> reversed(v.rbegin(), v.rend() - 1);
+              REQUIRE(vcm.light_vertices(scene, it, reversed, light) == k - 1);
+              const Segment<double> s{v[0], v[1]};
+              SegmentSample<double> b{s, s.direction(), 0, 1, 0, false};
+              w = vcm.camera_connection_weight(scene, it, light[k - 2], b);
+              break;
+            }
+          }
+          const double expected = mis_term(t.density, h) / denominator;
+          INFO(to_string(mode) << (h == MisHeuristic::power ? " power" : " balance") << " k=" << k << " technique "
+                               << int(t.kind) << "/" << t.index << ": " << w << " vs " << expected);
+          CHECK(std::abs(w - expected) <= 1e-6 * expected + 1e-12);
+          weight_sum += w;
+          ++checked;
+        }
+        CHECK(weight_sum == Approx(1).epsilon(1e-9));
+      }
+    }
+  }
+  CHECK(checked > 1000);
+}
+
+TEST_CASE("VCM rejects bad options with clear messages", "[algorithms][vcm]") {
+  using V = VertexConnectionMerging<Sphere>;
+  const auto message_of = [](VcmOptions o) -> std::string {
+    try {
+      V v(o);
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  VcmOptions o;
+  o.initial_radius = 0;
+  CHECK(message_of(o).find("initial_radius") != std::string::npos);
+  o.initial_radius = -1;
+  CHECK(message_of(o).find("initial_radius") != std::string::npos);
+  o = {};
+  for (const double alpha : {0.0, 1.0, -0.5, 1.5}) {
+    o.alpha = alpha;
+    CHECK(message_of(o).find("alpha") != std::string::npos);
+  }
+  o = {};
+  o.light_path_factor = 0;
+  CHECK(message_of(o).find("light_path_factor") != std::string::npos);
+  o = {};
+  o.max_length = 0;
+  CHECK(message_of(o).find("max_length") != std::string::npos);
+  CHECK(message_of(VcmOptions{}).empty());
+
+  const Sphere scene = make_sphere();
+  const V v{VcmOptions{}};
+  Framebuffer<double> wrong(2, 2);
+  DropCounters drops;
+  CHECK_THROWS_AS(v.render_iteration(scene, 0, wrong, drops, SerialFor{}), std::invalid_argument);
+  Framebuffer<double> image(3, 2);
+  CHECK_THROWS_AS(v.render_iteration_at_radius(scene, 0, 0.0, image, drops, SerialFor{}), std::invalid_argument);
+}
+
+TEST_CASE("the kernel radius follows ProgressiveRadius from iteration 0", "[algorithms][vcm]") {
+  VcmOptions o;
+  o.initial_radius = 0.2;
+  o.alpha = 0.5;
+  const VertexConnectionMerging<Sphere> v(o);
+  CHECK(v.radius(0) == Approx(0.2));
+  CHECK(v.radius(1) == Approx(0.2 * std::sqrt(0.75)));
+  CHECK(v.radius(2) == Approx(0.2 * std::sqrt(0.75 * 2.5 / 3)));
+}
+
+TEMPLATE_TEST_CASE("the hash grid finds exactly the points within the radius, in a fixed order", "[algorithms][kernels]",
+                   float, double) {
+  using T = TestType;
+  Pcg32 rng(7, 1);
+  std::vector<Vec3<T>> points(3000);
+  for (auto& p : points) p = Vec3<T>(rng.uniform<T>() * 4 - 2, rng.uniform<T>() * 4 - 2, rng.uniform<T>() * T(0.5));
+  std::vector<std::uint32_t> items(points.size());
+  for (std::uint32_t i = 0; i < items.size(); ++i) items[i] = i;
+  HashGrid<T> grid;
+  for (const T r : {T(0.05), T(0.3)}) {
+    grid.build(items, r, [&](std::uint32_t i) { return points[i]; });
+    CHECK(grid.size() == points.size());
+    for (int q = 0; q < 300; ++q) {
+      const Vec3<T> c(rng.uniform<T>() * 4 - 2, rng.uniform<T>() * 4 - 2, rng.uniform<T>() * T(0.5));
+      std::vector<std::uint32_t> found, again, expected;
+      grid.for_each_within(c, [&](std::uint32_t i, const Vec3<T>&) { found.push_back(i); });
+      grid.for_each_within(c, [&](std::uint32_t i, const Vec3<T>&) { again.push_back(i); });
+      for (std::uint32_t i = 0; i < points.size(); ++i)
+        if (glm::dot(points[i] - c, points[i] - c) < r * r) expected.push_back(i);
+      CHECK(found == again);
+      std::sort(found.begin(), found.end());
+      CHECK(found == expected);
+    }
+  }
+  // Non-finite items are left out; an empty grid answers nothing.
+  points[5] = Vec3<T>(std::numeric_limits<T>::quiet_NaN());
+  grid.build(items, T(0.1), [&](std::uint32_t i) { return points[i]; });
+  CHECK(grid.size() == points.size() - 1);
+  grid.build({}, T(0.1), [&](std::uint32_t i) { return points[i]; });
+  int calls = 0;
+  grid.for_each_within(Vec3<T>(0), [&](std::uint32_t, const Vec3<T>&) { ++calls; });
+  CHECK(calls == 0);
+}
