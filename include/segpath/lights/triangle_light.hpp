@@ -1,5 +1,5 @@
-// One-sided Lambertian triangle area lights: emissive triangles of one radiance, sampled by
-// area, modelling SampledEmitter (N30 light-start ends, N34 next-event ends).
+// One-sided Lambertian triangle area lights: emissive triangles of one radiance or one radiance
+// each, sampled by area, modelling SampledEmitter (N30 light-start ends, N34 next-event ends).
 #pragma once
 
 #include <algorithm>
@@ -30,7 +30,8 @@ struct EmissiveTriangle {
   Vec3<T> normal{0, 0, 0};
 };
 
-/// Several one-sided Lambertian triangles of radiance L, sampled as one emitter.
+/// Several one-sided Lambertian triangles of radiance L (one for all, or one per triangle),
+/// sampled as one emitter.
 ///
 /// Scene ids: the light stores the primitive ids it was given. A light end y is emissive iff
 /// y.kind == PointKind::surface and y.primitive_id is one of those ids (the position is not
@@ -39,7 +40,8 @@ struct EmissiveTriangle {
 ///
 /// Sampling (N30, N34): a triangle is chosen with probability area_i / A (A the total area)
 /// by u_select, then a uniform point on it, so every position density is 1/A in area
-/// measure, the selection included. Zero-area triangles are kept (their ids stay known)
+/// measure, the selection included (also with per-triangle radiances: selection ignores
+/// them, so bright small triangles are not favoured). Zero-area triangles are kept (their ids stay known)
 /// but are never sampled and have radiance and densities 0. sample_emission adds a
 /// cosine-weighted direction about the normal (density cos / pi in solid angle).
 template <Spectrum S>
@@ -52,11 +54,119 @@ class TriangleLights {
   /// equal to invalid_id or repeated, a radiance that is negative or non-finite in some
   /// channel, or a total area that is not finite and > 0 (e.g. no triangles).
   TriangleLights(const std::vector<EmissiveTriangle<Scalar>>& triangles, const S& radiance)
-      : radiance_(radiance) {
+      : TriangleLights(triangles, std::vector<S>(triangles.size(), checked(radiance, "")),
+                       radiance) {}
+
+  /// Triangle i emits radiances[i]. Throws std::invalid_argument as the one-radiance
+  /// constructor does, and when radiances.size() != triangles.size().
+  TriangleLights(const std::vector<EmissiveTriangle<Scalar>>& triangles,
+                 const std::vector<S>& radiances)
+      : TriangleLights(triangles, radiances,
+                       radiances.empty() ? S(Scalar(0)) : radiances.front()) {}
+
+  [[nodiscard]] std::size_t size() const noexcept { return triangles_.size(); }
+  [[nodiscard]] Scalar total_area() const noexcept { return total_area_; }
+  /// The radiance of the one-radiance constructor; with per-triangle radiances, triangle 0's
+  /// (see radiance_of).
+  [[nodiscard]] const S& emitted_radiance() const noexcept { return radiance_; }
+  /// The radiance of triangle `i` (in the order given to the constructor).
+  [[nodiscard]] const S& radiance_of(std::size_t i) const noexcept {
+    return triangles_[i].radiance;
+  }
+  /// The area of triangle `i` (in the order given to the constructor).
+  [[nodiscard]] Scalar area(std::size_t i) const noexcept { return triangles_[i].area; }
+  /// The unit emitting normal of triangle `i`.
+  [[nodiscard]] const Vec3<Scalar>& normal(std::size_t i) const noexcept {
+    return triangles_[i].normal;
+  }
+  /// The index (constructor order) of the triangle with scene primitive id `id`, if any.
+  [[nodiscard]] std::optional<std::uint32_t> find(std::uint32_t id) const noexcept {
+    const auto it = std::lower_bound(by_id_.begin(), by_id_.end(),
+                                     std::pair<std::uint32_t, std::uint32_t>(id, 0));
+    if (it == by_id_.end() || it->first != id) return std::nullopt;
+    return it->second;
+  }
+
+  /// L at a point of a non-degenerate triangle of this light, towards the front side; 0
+  /// behind it and at every other endpoint.
+  [[nodiscard]] S radiance(const EmissionQuery<Scalar>& q) const noexcept {
+    const Entry* e = emitting(q.point);
+    if (e == nullptr || !(glm::dot(q.to_sensor, e->normal) > Scalar(0))) return S(Scalar(0));
+    return e->radiance;
+  }
+
+  /// A uniform area point (u_select chooses the triangle, u_position the point; density 1/A)
+  /// and a cosine direction about its normal from u_direction (density cos / pi);
+  /// nullopt for a grazing direction (density 0).
+  [[nodiscard]] std::optional<EmissionSample<S>> sample_emission(
+      const EmissionSampleQuery<Scalar>& q) const noexcept {
+    const Entry& e = triangles_[select(q.u_select)];
+    const SurfacePoint<Scalar> y = sample_point(e, q.u_position);
+    const Vec3<Scalar> w =
+        Frame<Scalar>::from_normal(y.normal).to_world(square_to_cosine_hemisphere(q.u_direction));
+    // The density from the world direction, exactly as pdf_emission computes it.
+    const Scalar pdf_direction = glm::dot(w, y.normal) * inv_pi<Scalar>;
+    if (!(pdf_direction > Scalar(0))) return std::nullopt;
+    return EmissionSample<S>{y, w, e.radiance, inv_total_area_, pdf_direction};
+  }
+
+  /// {1/A, max(cos, 0)/pi} at this light's points, {0, 0} elsewhere.
+  [[nodiscard]] EmissionPdf<Scalar> pdf_emission(const EmissionPdfQuery<Scalar>& q) const noexcept {
+    const Entry* e = emitting(q.point);
+    if (e == nullptr) return EmissionPdf<Scalar>{};
+    const Scalar cosine = glm::dot(q.direction, e->normal);
+    return EmissionPdf<Scalar>{inv_total_area_,
+                               cosine > Scalar(0) ? cosine * inv_pi<Scalar> : Scalar(0)};
+  }
+
+  /// A uniform area point whatever the receiver (density 1/A in area measure) and the
+  /// radiance it sends towards the receiver (0 when the receiver is behind it); nullopt for
+  /// a receiver at the sampled point.
+  [[nodiscard]] std::optional<EmitterTowardsSample<S>> sample_towards(
+      const EmitterTowardsQuery<Scalar>& q) const noexcept {
+    const Entry& e = triangles_[select(q.u_select)];
+    const SurfacePoint<Scalar> y = sample_point(e, q.u);
+    Vec3<Scalar> to_receiver = q.receiver.position;  // a `direction` receiver stores it
+    if (q.receiver.kind != PointKind::direction) {
+      to_receiver -= y.position;
+      const Scalar d2 = glm::dot(to_receiver, to_receiver);
+      if (!(d2 > Scalar(0)) || !std::isfinite(d2)) return std::nullopt;
+      to_receiver /= std::sqrt(d2);
+    }
+    const S le = glm::dot(to_receiver, y.normal) > Scalar(0) ? e.radiance : S(Scalar(0));
+    return EmitterTowardsSample<S>{y, le, inv_total_area_};
+  }
+
+  /// 1/A at this light's points, 0 elsewhere (the density does not depend on the receiver).
+  [[nodiscard]] Scalar pdf_towards(const EmitterPdfTowardsQuery<Scalar>& q) const noexcept {
+    return emitting(q.point) != nullptr ? inv_total_area_ : Scalar(0);
+  }
+
+ private:
+  struct Entry {
+    Vec3<Scalar> p0{}, e1{}, e2{}, normal{0, 0, 1};
+    Scalar area = 0;
+    std::uint32_t primitive_id = invalid_id;
+    std::uint32_t material_id = invalid_id;
+    S radiance{};
+  };
+
+  /// `radiance` unchanged if it is finite and >= 0 in every channel; `which` names its triangle.
+  static const S& checked(const S& radiance, const std::string& which) {
     if (!is_finite(radiance) || max_component(radiance * Scalar(-1)) > Scalar(0))
-      throw std::invalid_argument(
-          "segpath::TriangleLights: radiance must be finite and >= 0 in every channel, got max " +
-          std::to_string(max_component(radiance)));
+      throw std::invalid_argument("segpath::TriangleLights: " + which +
+                                  "radiance must be finite and >= 0 in every channel, got max " +
+                                  std::to_string(max_component(radiance)));
+    return radiance;
+  }
+
+  TriangleLights(const std::vector<EmissiveTriangle<Scalar>>& triangles,
+                 const std::vector<S>& radiances, const S& first)
+      : radiance_(first) {
+    if (radiances.size() != triangles.size())
+      throw std::invalid_argument("segpath::TriangleLights: " + std::to_string(radiances.size()) +
+                                  " radiances for " + std::to_string(triangles.size()) +
+                                  " triangles (give one per triangle)");
     if (triangles.size() >= invalid_id)
       throw std::invalid_argument("segpath::TriangleLights: too many triangles");
     triangles_.reserve(triangles.size());
@@ -71,6 +181,7 @@ class TriangleLights {
       if (t.primitive_id == invalid_id)
         throw std::invalid_argument(which + " has primitive_id == invalid_id");
       Entry e;
+      e.radiance = checked(radiances[i], "triangle " + std::to_string(i) + ": ");
       e.p0 = t.p0;
       e.e1 = t.p1 - t.p0;
       e.e2 = t.p2 - t.p0;
@@ -112,83 +223,6 @@ class TriangleLights {
                                     std::to_string(by_id_[i].first) + " is given twice");
   }
 
-  [[nodiscard]] std::size_t size() const noexcept { return triangles_.size(); }
-  [[nodiscard]] Scalar total_area() const noexcept { return total_area_; }
-  [[nodiscard]] const S& emitted_radiance() const noexcept { return radiance_; }
-  /// The area of triangle `i` (in the order given to the constructor).
-  [[nodiscard]] Scalar area(std::size_t i) const noexcept { return triangles_[i].area; }
-  /// The unit emitting normal of triangle `i`.
-  [[nodiscard]] const Vec3<Scalar>& normal(std::size_t i) const noexcept {
-    return triangles_[i].normal;
-  }
-  /// The index (constructor order) of the triangle with scene primitive id `id`, if any.
-  [[nodiscard]] std::optional<std::uint32_t> find(std::uint32_t id) const noexcept {
-    const auto it = std::lower_bound(by_id_.begin(), by_id_.end(),
-                                     std::pair<std::uint32_t, std::uint32_t>(id, 0));
-    if (it == by_id_.end() || it->first != id) return std::nullopt;
-    return it->second;
-  }
-
-  /// L at a point of a non-degenerate triangle of this light, towards the front side; 0
-  /// behind it and at every other endpoint.
-  [[nodiscard]] S radiance(const EmissionQuery<Scalar>& q) const noexcept {
-    const Entry* e = emitting(q.point);
-    if (e == nullptr || !(glm::dot(q.to_sensor, e->normal) > Scalar(0))) return S(Scalar(0));
-    return radiance_;
-  }
-
-  /// A uniform area point (u_select chooses the triangle, u_position the point; density 1/A)
-  /// and a cosine direction about its normal from u_direction (density cos / pi);
-  /// nullopt for a grazing direction (density 0).
-  [[nodiscard]] std::optional<EmissionSample<S>> sample_emission(
-      const EmissionSampleQuery<Scalar>& q) const noexcept {
-    const SurfacePoint<Scalar> y = sample_point(q.u_select, q.u_position);
-    const Vec3<Scalar> w =
-        Frame<Scalar>::from_normal(y.normal).to_world(square_to_cosine_hemisphere(q.u_direction));
-    // The density from the world direction, exactly as pdf_emission computes it.
-    const Scalar pdf_direction = glm::dot(w, y.normal) * inv_pi<Scalar>;
-    if (!(pdf_direction > Scalar(0))) return std::nullopt;
-    return EmissionSample<S>{y, w, radiance_, inv_total_area_, pdf_direction};
-  }
-
-  /// {1/A, max(cos, 0)/pi} at this light's points, {0, 0} elsewhere.
-  [[nodiscard]] EmissionPdf<Scalar> pdf_emission(const EmissionPdfQuery<Scalar>& q) const noexcept {
-    const Entry* e = emitting(q.point);
-    if (e == nullptr) return EmissionPdf<Scalar>{};
-    const Scalar cosine = glm::dot(q.direction, e->normal);
-    return EmissionPdf<Scalar>{inv_total_area_,
-                               cosine > Scalar(0) ? cosine * inv_pi<Scalar> : Scalar(0)};
-  }
-
-  /// A uniform area point whatever the receiver (density 1/A in area measure) and the
-  /// radiance it sends towards the receiver (0 when the receiver is behind it); nullopt for
-  /// a receiver at the sampled point.
-  [[nodiscard]] std::optional<EmitterTowardsSample<S>> sample_towards(
-      const EmitterTowardsQuery<Scalar>& q) const noexcept {
-    const SurfacePoint<Scalar> y = sample_point(q.u_select, q.u);
-    Vec3<Scalar> to_receiver = q.receiver.position;  // a `direction` receiver stores it
-    if (q.receiver.kind != PointKind::direction) {
-      to_receiver -= y.position;
-      const Scalar d2 = glm::dot(to_receiver, to_receiver);
-      if (!(d2 > Scalar(0)) || !std::isfinite(d2)) return std::nullopt;
-      to_receiver /= std::sqrt(d2);
-    }
-    const S le = glm::dot(to_receiver, y.normal) > Scalar(0) ? radiance_ : S(Scalar(0));
-    return EmitterTowardsSample<S>{y, le, inv_total_area_};
-  }
-
-  /// 1/A at this light's points, 0 elsewhere (the density does not depend on the receiver).
-  [[nodiscard]] Scalar pdf_towards(const EmitterPdfTowardsQuery<Scalar>& q) const noexcept {
-    return emitting(q.point) != nullptr ? inv_total_area_ : Scalar(0);
-  }
-
- private:
-  struct Entry {
-    Vec3<Scalar> p0{}, e1{}, e2{}, normal{0, 0, 1};
-    Scalar area = 0;
-    std::uint32_t primitive_id = invalid_id;
-    std::uint32_t material_id = invalid_id;
-  };
 
   /// The non-degenerate triangle `p` lies on, or nullptr.
   [[nodiscard]] const Entry* emitting(const SurfacePoint<Scalar>& p) const noexcept {
@@ -208,9 +242,8 @@ class TriangleLights {
     return static_cast<std::uint32_t>(it - cdf_.begin());
   }
 
-  [[nodiscard]] SurfacePoint<Scalar> sample_point(Scalar u_select,
-                                                  const Vec2<Scalar>& u) const noexcept {
-    const Entry& e = triangles_[select(u_select)];
+  [[nodiscard]] static SurfacePoint<Scalar> sample_point(const Entry& e,
+                                                         const Vec2<Scalar>& u) noexcept {
     const Vec2<Scalar> b = square_to_uniform_triangle(u);
     return SurfacePoint<Scalar>::on_surface(e.p0 + e.e1 * b.x + e.e2 * b.y, e.normal,
                                             e.primitive_id, e.material_id);

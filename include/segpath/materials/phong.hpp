@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -45,6 +46,7 @@ class Phong {
     eval_scale_ = (exponent + Scalar(2)) * (Scalar(0.5) * inv_pi<Scalar>);
     pdf_scale_ = (exponent + Scalar(1)) * (Scalar(0.5) * inv_pi<Scalar>);
     inv_exponent_plus_one_ = Scalar(1) / (exponent + Scalar(1));
+    if (exponent == std::floor(exponent) && exponent <= Scalar(1 << 20)) integer_exponent_ = static_cast<std::uint32_t>(exponent);
   }
 
   [[nodiscard]] const S& coefficient() const noexcept { return coefficient_; }
@@ -83,7 +85,16 @@ class Phong {
     if (!is_above(p, a) || !is_above(p, b)) return Scalar(0);
     const Scalar cos_alpha = reflected_cosine(a, b, p.shading_normal);
     if (!(cos_alpha > phong_cutoff<Scalar>)) return Scalar(0);
-    return std::pow(std::min(cos_alpha, Scalar(1)), exponent_);
+    const Scalar c = std::min(cos_alpha, Scalar(1));
+    if (!integer_exponent_) return std::pow(c, exponent_);
+    // Integer exponents (90 on the Cornell floor) by repeated squaring: a few multiplies
+    // instead of a pow in the hot loops that evaluate the lobe for many pairs.
+    Scalar result = 1, base = c;
+    for (std::uint32_t e = *integer_exponent_; e != 0; e >>= 1) {
+      if (e & 1u) result *= base;
+      base *= base;
+    }
+    return result;
   }
 
   S coefficient_;
@@ -91,6 +102,7 @@ class Phong {
   Scalar eval_scale_ = 0;
   Scalar pdf_scale_ = 0;
   Scalar inv_exponent_plus_one_ = 1;
+  std::optional<std::uint32_t> integer_exponent_;
 };
 
 }  // namespace segpath

@@ -1,0 +1,299 @@
+// segpath-render: renders the four SmallVCM Cornell boxes (or an OBJ scene) with one of
+// segpath's methods, for a number of iterations or a time budget, and writes EXR/PFM/PNG
+// images; optionally reports RMSE and relMSE against a reference. `segpath-render --help`.
+#include "cornell.hpp"
+#include "image_io.hpp"
+#include "integrators.hpp"
+#include "tbb_parallel.hpp"
+
+// OBJ scenes need the loader (another file of this example) and tinyobjloader (CMake defines
+// SEGPATH_RENDER_TINYOBJLOADER where it found it).
+#if defined(SEGPATH_RENDER_TINYOBJLOADER) && __has_include("obj_scene.hpp")
+#include "obj_scene.hpp"
+#define SEGPATH_RENDER_HAS_OBJ 1
+#else
+#define SEGPATH_RENDER_HAS_OBJ 0
+#endif
+
+#include <CLI/CLI.hpp>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <exception>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct Options {
+  std::string scene = "cornell1";
+  std::string method = "pt";
+  std::uint64_t spp = 16;
+  std::optional<double> time;
+  unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+  std::uint64_t seed = 1;
+  std::uint32_t width = 512, height = 512;
+  std::size_t max_length = renderer::cornell_max_length;
+  std::optional<double> radius;
+  std::optional<double> alpha, beta;
+  std::vector<std::string> out;
+  std::optional<std::string> reference;
+  // OBJ scenes only: a look-at camera ("x,y,z" vectors).
+  std::string camera_position = "0,0,0", camera_target = "0,1,0", camera_up = "0,0,1";
+  float fov = 45;
+};
+
+bool ends_with_obj(const std::string& s) {
+  if (s.size() < 4) return false;
+  std::string ext = s.substr(s.size() - 4);
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return ext == ".obj";
+}
+
+std::string joined(const std::vector<std::string>& names, const char* separator) {
+  std::string s;
+  for (const auto& n : names) s += (s.empty() ? "" : separator) + n;
+  return s;
+}
+
+/// A positive finite number (CLI::PositiveNumber accepts "inf").
+const CLI::Validator positive_finite(
+    [](std::string& s) -> std::string {
+      double v = 0;
+      if (!CLI::detail::lexical_cast(s, v) || !std::isfinite(v) || !(v > 0)) return "must be a finite number > 0, got " + s;
+      return {};
+    },
+    "POSITIVE");
+
+const CLI::Validator unsigned_integer(
+    [](std::string& s) -> std::string {
+      if (s.empty() || s.size() > 20 || s.find_first_not_of("0123456789") != std::string::npos)
+        return "must be an integer >= 0, got " + s;
+      return {};
+    },
+    "");
+
+const CLI::Validator open_unit_interval(
+    [](std::string& s) -> std::string {
+      double v = 0;
+      if (!CLI::detail::lexical_cast(s, v) || !(v > 0 && v < 1)) return "must lie in (0, 1), got " + s;
+      return {};
+    },
+    "IN (0,1)");
+
+/// Checks up front that every output can be written (known extension, existing directory),
+/// so a long render is not lost at the end.
+void check_outputs(const Options& o) {
+  for (const auto& path : o.out) {
+    if (!renderer::writable_format(path))
+      throw std::runtime_error("--out " + path + ": unknown image format (use .exr, .pfm or .png)");
+    std::filesystem::path parent = std::filesystem::path(path).parent_path();
+    if (parent.empty()) parent = ".";
+    std::error_code ec;
+    if (!std::filesystem::is_directory(parent, ec))
+      throw std::runtime_error("--out " + path + ": directory " + parent.string() + " does not exist");
+    if (::access(parent.c_str(), W_OK) != 0)
+      throw std::runtime_error("--out " + path + ": directory " + parent.string() + " is not writable");
+  }
+}
+
+renderer::RenderScene load_scene(const Options& o) {
+  for (int box = 0; box < 4; ++box)
+    if (o.scene == "cornell" + std::to_string(box)) return renderer::make_cornell(box, o.width, o.height);
+  if (ends_with_obj(o.scene)) {
+#if SEGPATH_RENDER_HAS_OBJ
+    if (!std::filesystem::is_regular_file(o.scene)) throw std::runtime_error("--scene " + o.scene + ": no such file");
+    renderer::ObjCamera camera;
+    camera.position = renderer::parse_vec3(o.camera_position);
+    camera.target = renderer::parse_vec3(o.camera_target);
+    camera.up = renderer::parse_vec3(o.camera_up);
+    camera.fov_y_degrees = o.fov;
+    return renderer::load_obj_scene(o.scene, camera, o.width, o.height);
+#else
+    throw std::runtime_error("--scene " + o.scene + ": this build has no OBJ loader (examples/renderer/obj_scene.hpp)");
+#endif
+  }
+  throw std::runtime_error("--scene " + o.scene + ": unknown scene (use cornell0, cornell1, cornell2, cornell3 or a .obj file)");
+}
+
+/// A progress bar with ETA on stderr, only when stderr is a terminal, redrawn at most ten
+/// times per second.
+class Progress {
+ public:
+  Progress() : enabled_(::isatty(STDERR_FILENO) == 1) {}
+  void update(double fraction, double elapsed) {
+    if (!enabled_) return;
+    const auto now = Clock::now();
+    if (drawn_ && now - last_ < std::chrono::milliseconds(100)) return;
+    last_ = now;
+    drawn_ = true;
+    fraction = std::clamp(fraction, 0.0, 1.0);
+    constexpr int width = 40;
+    const int filled = int(fraction * width);
+    std::string bar(std::size_t(filled), '#');
+    bar.resize(width, '.');
+    const double eta = fraction > 0 ? elapsed * (1 - fraction) / fraction : 0;
+    std::fprintf(stderr, "\r[%s] %5.1f%%  elapsed %.1f s  ETA %.1f s ", bar.c_str(), 100 * fraction, elapsed, eta);
+    std::fflush(stderr);
+  }
+  void finish() {
+    if (enabled_ && drawn_) std::fprintf(stderr, "\r%80s\r", "");
+  }
+
+ private:
+  bool enabled_;
+  bool drawn_ = false;
+  Clock::time_point last_{};
+};
+
+int run(const Options& o) {
+  check_outputs(o);
+  std::optional<examples::Image> reference;
+  if (o.reference) {
+    if (!renderer::readable_format(*o.reference))
+      throw std::runtime_error("--reference " + *o.reference + ": use a .pfm or .exr image");
+    reference = renderer::read_image(*o.reference);
+    if (reference->width != int(o.width) || reference->height != int(o.height))
+      throw std::runtime_error("--reference " + *o.reference + " is " + std::to_string(reference->width) + "x" +
+                               std::to_string(reference->height) + ", the render is " + std::to_string(o.width) + "x" +
+                               std::to_string(o.height));
+  }
+  renderer::MethodOptions mo;
+  mo.seed = o.seed;
+  mo.max_length = o.max_length;
+  mo.radius = o.radius;
+  mo.alpha = o.alpha;
+  mo.beta = o.beta;
+  auto method = renderer::make_method(o.method, mo);
+  if (!method) throw std::runtime_error("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
+  const renderer::RenderScene scene = load_scene(o);
+
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, o.threads);
+  tbb::task_arena arena(int(o.threads));
+  renderer::Accumulator accumulate(o.width, o.height);
+  renderer::Stats stats;
+  std::uint64_t iterations = 0;
+  Progress progress;
+  const auto start = Clock::now();
+  const auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+  arena.execute([&] {
+    std::visit(
+        [&](auto& m) {
+          for (;;) {
+            if (o.time ? (iterations > 0 && elapsed() >= *o.time) : iterations >= o.spp) break;
+            m.render_iteration(scene, iterations, accumulate, stats, renderer::TbbFor{});
+            ++iterations;
+            progress.update(o.time ? elapsed() / *o.time : double(iterations) / double(o.spp), elapsed());
+          }
+        },
+        *method);
+  });
+  const double seconds = elapsed();
+  progress.finish();
+
+  // The image: sum / iterations; a non-finite pixel (only possible by overflow) is zeroed and counted.
+  examples::Image image(int(o.width), int(o.height));
+  for (std::uint32_t p = 0; p < accumulate.pixel_count(); ++p) {
+    const auto v = accumulate[p] / double(iterations);
+    const segpath::Rgb<float> f(float(v.r), float(v.g), float(v.b));
+    if (segpath::is_finite(f)) {
+      image.pixels[p] = f;
+    } else {
+      image.pixels[p] = segpath::Rgb<float>(0.0f);
+      stats.dropped.add(segpath::DropReason::non_finite);
+    }
+  }
+  for (const auto& path : o.out) renderer::write_image(image, path);
+
+  std::string dropped;
+  for (std::size_t r = 0; r < segpath::drop_reason_count; ++r)
+    dropped += std::string(r ? ", " : "") + segpath::to_string(segpath::DropReason(r)) + " " +
+               std::to_string(stats.dropped.counts[r]);
+  std::printf("segpath-render: %s %s %ux%u, %llu spp (%llu iterations), %u threads, %.2f s, %.3f M samples/s, %.3f M rays/s, mean %.4f, dropped %llu (%s)",
+              std::string(renderer::method_name(*method)).c_str(), scene.name().c_str(), o.width, o.height,
+              static_cast<unsigned long long>(iterations), static_cast<unsigned long long>(iterations), o.threads, seconds,
+              double(stats.paths) / seconds * 1e-6, double(stats.rays) / seconds * 1e-6, image.mean(),
+              static_cast<unsigned long long>(stats.dropped.total()), dropped.c_str());
+  if (reference) {
+    const auto e = renderer::compare(image, *reference);
+    std::printf(", RMSE %.6g, relMSE %.6g", e.rmse, e.relmse);
+  }
+  std::printf("\n");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  CLI::App app("segpath-render: renders a scene with one of segpath's methods and writes EXR/PFM/PNG images.",
+               "segpath-render");
+  const std::string methods = joined(renderer::method_names(), ", ");
+  app.add_option("--scene", o.scene, "cornell0, cornell1, cornell2, cornell3 (SmallVCM's boxes) or PATH.obj")
+      ->capture_default_str();
+  app.add_option("--method", o.method, "rendering method: " + methods)->capture_default_str();
+  auto* spp = app.add_option("--spp", o.spp, "iterations (samples per pixel) to render")
+                  ->check(unsigned_integer)->check(CLI::Range(std::uint64_t(1), std::uint64_t(1) << 32))
+                  ->capture_default_str();
+  app.add_option("--time", o.time, "render until SECONDS of wall time are spent instead of --spp (equal-time runs)")
+      ->check(positive_finite)
+      ->excludes(spp);
+  app.add_option("--threads", o.threads, "worker threads (default: hardware concurrency)")
+      ->check(unsigned_integer)->check(CLI::Range(1u, 1024u))
+      ->capture_default_str();
+  app.add_option("--seed", o.seed, "random seed (an integer >= 0)")->check(unsigned_integer)->capture_default_str();
+  app.add_option("--width", o.width, "image width in pixels")->check(unsigned_integer)->check(CLI::Range(1u, 16384u))->capture_default_str();
+  app.add_option("--height", o.height, "image height in pixels")->check(unsigned_integer)->check(CLI::Range(1u, 16384u))->capture_default_str();
+  app.add_option("--max-length", o.max_length, "segments per path, the camera segment included")
+      ->check(unsigned_integer)->check(CLI::Range(std::size_t(1), std::size_t(1000)))
+      ->capture_default_str();
+  app.add_option("--radius", o.radius,
+                 "initial kernel radius (bdpt/ppm/bpm/vcm) or voxel size (mvf/phf/bdpf), > 0; default: 4x the "
+                 "average pixel footprint")
+      ->check(positive_finite);
+  app.add_option("--alpha", o.alpha, "progressive kernel shrinking, in (0, 1); default 0.75 (vcm family), 0.67 (filtering)")
+      ->check(open_unit_interval);
+  app.add_option("--beta", o.beta, "light paths per camera path, > 0; default 1 (vcm family), 0.25 (filtering)")
+      ->check(positive_finite);
+#if SEGPATH_RENDER_HAS_OBJ
+  app.add_option("--camera-position", o.camera_position, "OBJ scenes: camera position x,y,z")->capture_default_str();
+  app.add_option("--camera-target", o.camera_target, "OBJ scenes: point the camera looks at, x,y,z")->capture_default_str();
+  app.add_option("--camera-up", o.camera_up, "OBJ scenes: up direction x,y,z")->capture_default_str();
+  app.add_option("--fov", o.fov, "OBJ scenes: vertical field of view in degrees, in (0, 180)")
+      ->check(positive_finite)
+      ->capture_default_str();
+#endif
+  app.add_option("--out", o.out, "output image, .exr (float RGB), .pfm or .png (clamped, sRGB); repeatable");
+  app.add_option("--reference", o.reference,
+                 "reference image (.pfm or .exr): prints RMSE and relMSE, relMSE = mean over pixels and channels of "
+                 "(x - r)^2 / (r^2 + 1e-2)");
+  app.footer(
+      "Prints one summary line on stdout: method, scene, resolution, samples per pixel (iterations), threads, wall time, "
+      "samples and rays (intersect + visible calls) per second, image mean, dropped samples by reason, and with "
+      "--reference the RMSE and relMSE (mean over pixels and channels of (x - r)^2 / (r^2 + 1e-2)).\n");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::fprintf(stderr, "segpath-render: %s (see --help)\n", e.what());
+    return 2;
+  }
+  try {
+    return run(o);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "segpath-render: error: %s\n", e.what());
+    return 1;
+  }
+}
