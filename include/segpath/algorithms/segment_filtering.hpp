@@ -22,6 +22,15 @@
 //     light ends (point lights, the sun) only light sampling can produce: D = N_L p_L;
 //  5. propagation over clusters, max_length - 1 Jacobi iterations, from L_e;
 //  6. gather: pixel p += W G L(s_1) / D(s_1) over its sensor segments.
+// Known limits (measured, see tests/renderer/methods_test.cpp):
+//  - max_length counts pooled segments and propagation iterations; a chain through specular
+//    vertices is one segment, so paths with specular bounces may be longer than max_length
+//    physical segments (PT counts every bounce). Negligible at length 10, visible at 3-4.
+//  - MMIS with compactly supported conditionals is biased by the chance that no technique
+//    sample covers a point (a cluster with no camera technique cannot continue a path): MVF has
+//    no unconditional technique past the sensor segment, so it darkens as voxels empty.
+//  - On SmallVCM's box 1 the glossy floor drifts brighter than PT as the voxel shrinks at
+//    beta = 0.25 (+7.6 % +- 1.4 % at half the default voxel), not at beta = 2; not explained yet.
 // Beyond the paper: a cluster whose camera (light) technique points are all Lambertian with
 // one shading normal has technique densities independent of the technique sample, so its sum
 // is m p(s) (O(n) instead of O(n m)); with every ending point Lambertian with one normal, the
@@ -177,8 +186,8 @@ class SegmentFiltering {
   static constexpr std::uint8_t sensor_segment = 1;     ///< s_1 of a camera path
   static constexpr std::uint8_t camera_born = 2;        ///< drawn by the camera side
   static constexpr std::uint8_t chain_segment = 4;      ///< contains delta vertices: (area x, solid angle x) measure
-  static constexpr std::uint8_t camera_technique = 8;   ///< a camera successor was drawn from it
-  static constexpr std::uint8_t light_technique = 16;   ///< a light predecessor was drawn from it
+  static constexpr std::uint8_t camera_technique = 8;   ///< a camera successor draw was attempted from it
+  static constexpr std::uint8_t light_technique = 16;   ///< a light predecessor draw was attempted from it
   static constexpr std::uint8_t light_start = 32;       ///< drawn by the light-start sampler
   static constexpr std::uint8_t delta_light = 64;       ///< its light end is a Dirac (point light, sun)
 
@@ -303,9 +312,13 @@ class SegmentFiltering {
       r.chain = chain;
       r.geometry = (r.flags & chain_segment) ? endpoint_cosine(r.segment.x, r.first_direction)
                                              : geometry_term(r.segment, direction, distance);
-      const bool continues = options_.mode != FilteringMode::phf && next && !next->delta && next->pdf > T(0) &&
-                             pieces < max_pieces && y.kind == PointKind::surface;
-      if (continues) r.flags |= camera_technique;
+      // Every attempted successor draw is a technique sample, including draws that failed:
+      // SMIS/MMIS denominators sum over all technique samples (N11, N39); leaving the failed
+      // ones out would underestimate D and bias the image upwards (glossy lobes at grazing
+      // angles fail often).
+      const bool attempted = options_.mode != FilteringMode::phf && pieces < max_pieces && y.kind == PointKind::surface;
+      if (attempted) r.flags |= camera_technique;
+      const bool continues = attempted && next && !next->delta && next->pdf > T(0);
       out.push_back(r);
       if (!continues) return;
       // The approximate successor (N33): starts exactly at y, direction from the BSDF at y.
@@ -345,10 +358,13 @@ class SegmentFiltering {
     for (std::size_t pieces = 1;; ++pieces) {
       const SurfacePoint<T>& x = r.segment.x;
       std::optional<BsdfSample<S>> prev;
-      if (x.kind == PointKind::surface && pieces + 1 < options_.max_length)
+      const bool attempted = x.kind == PointKind::surface && pieces + 1 < options_.max_length;
+      if (attempted)
         prev = bsdf.sample(BsdfSampleQuery<T>{x, r.first_direction, uniform2<T>(rng), rng.template uniform<T>(), Transport::importance});
+      // A technique sample whether or not its draw succeeded (see trace_camera_path); a
+      // delta surface ends the light path and has no density for any segment anyway.
+      if (attempted && !(prev && prev->delta)) r.flags |= light_technique;
       const bool continues = prev && !prev->delta && prev->pdf > T(0);
-      if (continues) r.flags |= light_technique;
       out.push_back(r);
       if (!continues) return;
       // The approximate predecessor: y' = x exactly, x' the first hit towards the sensor side.

@@ -1,0 +1,362 @@
+// Tests of every renderer method against path tracing on the Cornell boxes: thread-count
+// independence, and per-tile agreement with PT on the path families both sample (unbiased
+// methods exactly, kernel and filtering methods within a measured bias bound).
+#include "support/catch.hpp"
+
+#include "cornell.hpp"
+#include "integrators.hpp"
+#include "tbb_parallel.hpp"
+
+#include <segpath/core/contribution.hpp>
+#include <segpath/samplers/sensor_start.hpp>
+#include <segpath/testing/statistics.hpp>
+
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace {
+
+using renderer::RenderScene;
+using segpath::testing::RunningStats;
+
+constexpr std::uint32_t size = 64;  // image side of the agreement tests; 16 tiles of 16 x 16
+constexpr std::uint32_t tile_side = 16;
+constexpr double family_alpha = 1e-3;
+
+/// The tile of each pixel (-1: not compared) and the number of tiles.
+struct Tiles {
+  std::vector<int> of;
+  std::size_t count = 0;
+};
+
+Tiles square_tiles() {
+  Tiles t{std::vector<int>(std::size_t(size) * size), std::size_t(size / tile_side) * (size / tile_side)};
+  for (std::uint32_t p = 0; p < size * size; ++p) t.of[p] = int((p / size) / tile_side * (size / tile_side) + (p % size) / tile_side);
+  return t;
+}
+
+double channel_mean(const segpath::Rgb<double>& c) { return (c.r + c.g + c.b) / 3.0; }
+
+template <class P>
+renderer::Accumulator render(renderer::Method& method, const RenderScene& scene, std::uint64_t iterations,
+                             renderer::Stats& stats, const P& parallel) {
+  renderer::Accumulator acc(scene.sensor().width(), scene.sensor().height());
+  std::visit([&](auto& m) {
+    for (std::uint64_t i = 0; i < iterations; ++i) m.render_iteration(scene, i, acc, stats, parallel);
+  }, method);
+  return acc;
+}
+
+/// Each iteration's image is one sample of every pixel: per tile, the iteration's mean over
+/// the tile's pixels, one value per iteration ([tile][iteration]).
+std::vector<std::vector<double>> iteration_tile_means(const std::string& name, const renderer::MethodOptions& options,
+                                                      const RenderScene& scene, const Tiles& tiles, std::uint64_t iterations) {
+  auto method = renderer::make_method(name, options);
+  REQUIRE(method);
+  std::vector<std::vector<double>> result(tiles.count);
+  renderer::Accumulator acc(scene.sensor().width(), scene.sensor().height());
+  renderer::Stats stats;
+  std::vector<double> sum(tiles.count), count(tiles.count);
+  for (std::uint64_t i = 0; i < iterations; ++i) {
+    acc.clear();
+    std::visit([&](auto& m) { m.render_iteration(scene, i, acc, stats, renderer::TbbFor{}); }, *method);
+    std::fill(sum.begin(), sum.end(), 0.0);
+    std::fill(count.begin(), count.end(), 0.0);
+    for (std::uint32_t p = 0; p < acc.pixel_count(); ++p) {
+      if (tiles.of[p] < 0) continue;
+      sum[std::size_t(tiles.of[p])] += channel_mean(acc[p]);
+      count[std::size_t(tiles.of[p])] += 1;
+    }
+    for (std::size_t t = 0; t < tiles.count; ++t)
+      if (count[t] > 0) result[t].push_back(sum[t] / count[t]);
+  }
+  CHECK(stats.dropped.total() == 0);
+  return result;
+}
+
+std::vector<RunningStats> stats_of(const std::vector<std::vector<double>>& samples, double scale = 1.0) {
+  std::vector<RunningStats> s(samples.size());
+  for (std::size_t t = 0; t < samples.size(); ++t)
+    for (const double v : samples[t]) s[t].add(scale * v);
+  return s;
+}
+
+/// PT (the renderer's PtMethod, one path per pixel per iteration) per pixel sample, and per
+/// pixel whether every one of its samples' first camera hit is a non-delta surface that
+/// emits nothing towards the camera (the sensor-start sampler replayed on PT's own stream).
+struct PtReference {
+  std::vector<RunningStats> pixels;
+  std::vector<bool> diffuse_first;
+
+  [[nodiscard]] std::vector<RunningStats> tiles(const Tiles& tiles, double scale = 1.0) const {
+    std::vector<RunningStats> t(tiles.count);
+    for (std::size_t p = 0; p < pixels.size(); ++p) {
+      if (tiles.of[p] < 0) continue;
+      if (scale == 1.0) {
+        t[std::size_t(tiles.of[p])].merge(pixels[p]);
+      } else {  // a deliberately wrong reference: the same samples scaled
+        RunningStats s;
+        s.merge(pixels[p]);
+        RunningStats scaled;
+        const double n = double(s.count()), m = s.mean(), v = s.variance();
+        // n values with mean scale * m and variance scale^2 v, merged exactly.
+        scaled.add(scale * m + scale * std::sqrt(v * (n - 1) / 2.0));
+        scaled.add(scale * m - scale * std::sqrt(v * (n - 1) / 2.0));
+        for (std::uint64_t k = 2; k < s.count(); ++k) scaled.add(scale * m);
+        t[std::size_t(tiles.of[p])].merge(scaled);
+      }
+    }
+    return t;
+  }
+};
+
+PtReference pt_reference(const RenderScene& scene, std::uint64_t seed, std::uint64_t spp) {
+  renderer::MethodOptions options;
+  options.seed = seed;
+  renderer::PtMethod pt(options);
+  const std::uint32_t n = scene.sensor().pixel_count();
+  PtReference r{std::vector<RunningStats>(n), std::vector<bool>(n, true)};
+  renderer::Accumulator acc(scene.sensor().width(), scene.sensor().height());
+  renderer::Stats stats;
+  const segpath::SensorStartSampler<RenderScene> first;
+  for (std::uint64_t i = 0; i < spp; ++i) {
+    acc.clear();
+    pt.render_iteration(scene, i, acc, stats, renderer::TbbFor{});
+    for (std::uint32_t p = 0; p < n; ++p) {
+      r.pixels[p].add(channel_mean(acc[p]));
+      auto rng = segpath::Pcg32::for_sample(seed, p, i);
+      const auto s = first.sample(scene, {p}, rng);
+      const bool diffuse = s && s->segment.y.kind == segpath::PointKind::surface && !scene.bsdf().is_delta(s->segment.y) &&
+                           segpath::is_black(segpath::emission_factor(scene, s->segment, s->direction));
+      if (!diffuse) r.diffuse_first[p] = false;
+    }
+  }
+  CHECK(stats.dropped.total() == 0);
+  return r;
+}
+
+/// The PT references, computed once per run. Box 1's caustics (wall -> mirror -> light) make
+/// PT heavy-tailed: 1024 spp gives 2.6e5 samples per tile, relative standard errors 0.75-2 %
+/// per tile (renderer_test.cpp found the sample variance trustworthy from 3.3e4 on). Box 3 is
+/// smooth: 256 spp give 0.4-0.9 %.
+const PtReference& pt_box(int box) {
+  static std::map<int, PtReference> cache;
+  auto it = cache.find(box);
+  if (it == cache.end()) {
+    const RenderScene scene = renderer::make_cornell(box, size, size);
+    it = cache.emplace(box, pt_reference(scene, 101, box == 1 ? 1024 : 256)).first;
+  }
+  return it->second;
+}
+
+/// Per tile: the difference method - PT and its standard error.
+struct TileDifference {
+  double pt, method, difference, sigma, p_value;
+};
+
+std::vector<TileDifference> differences(const std::vector<RunningStats>& pt, const std::vector<RunningStats>& method) {
+  std::vector<TileDifference> d;
+  for (std::size_t t = 0; t < pt.size(); ++t)
+    d.push_back({pt[t].mean(), method[t].mean(), method[t].mean() - pt[t].mean(),
+                 std::hypot(pt[t].standard_error(), method[t].standard_error()),
+                 segpath::testing::welch_t_test(pt[t], method[t]).p_value});
+  return d;
+}
+
+/// Welch test per tile; returns how many tiles reject at alpha.
+std::size_t rejections(const std::vector<RunningStats>& pt, const std::vector<RunningStats>& method, double alpha,
+                       const std::string& label, bool expect_none) {
+  std::size_t rejected = 0;
+  const auto d = differences(pt, method);
+  for (std::size_t t = 0; t < d.size(); ++t) {
+    const bool rejects = d[t].p_value < alpha;
+    rejected += rejects;
+    if (expect_none) {
+      INFO(label << " tile " << t << ": PT " << d[t].pt << ", method " << d[t].method << ", difference " << d[t].difference
+                 << " +- " << d[t].sigma << ", p = " << d[t].p_value);
+      CHECK_FALSE(rejects);
+    }
+  }
+  return rejected;
+}
+
+}  // namespace
+
+TEST_CASE("every method renders the same image with 1 and 2 threads", "[renderer]") {
+  const std::vector<std::pair<std::string, int>> runs = [] {
+    std::vector<std::pair<std::string, int>> r;
+    for (const auto& name : renderer::method_names()) r.emplace_back(name, 1);
+    r.emplace_back("vcm", 3);
+    return r;
+  }();
+  for (const auto& [name, box] : runs) {
+    const RenderScene scene = renderer::make_cornell(box, 32, 32);
+    auto run = [&](int threads, std::uint64_t seed) {
+      renderer::MethodOptions options;
+      options.seed = seed;
+      auto method = renderer::make_method(name, options);
+      REQUIRE(method);
+      renderer::Stats stats;
+      std::optional<renderer::Accumulator> acc;
+      tbb::task_arena arena(threads);
+      arena.execute([&] { acc.emplace(render(*method, scene, 2, stats, renderer::TbbFor{})); });
+      return std::pair(std::move(*acc), stats);
+    };
+    const auto [one, one_stats] = run(1, 1);
+    const auto [two, two_stats] = run(2, 1);
+    const auto [other, other_stats] = run(2, 2);
+    INFO(name << " on box " << box);
+    REQUIRE(one.pixel_count() == two.pixel_count());
+    CHECK(std::memcmp(one.pixels().data(), two.pixels().data(), one.pixels().size_bytes()) == 0);
+    CHECK(one_stats.paths == two_stats.paths);
+    CHECK(one_stats.rays == two_stats.rays);
+    CHECK(one_stats.dropped.counts == two_stats.dropped.counts);
+    double sum = 0;
+    for (const auto& p : one.pixels()) sum += p.r + p.g + p.b;
+    CHECK(std::isfinite(sum));
+    CHECK(sum > 0);
+    CHECK(std::memcmp(one.pixels().data(), other.pixels().data(), one.pixels().size_bytes()) != 0);
+  }
+}
+
+// BDPT and PT are unbiased and sample every path family of boxes 1 and 3: a straight Welch
+// test per 16 x 16 tile (PT: per-pixel samples; BDPT: per-iteration tile means), Sidak over
+// the 32 tiles of both boxes. Power: PT scaled by 1.05 must be rejected on some tile of each
+// box (box 3's tiles resolve 0.6 %, box 1's best 0.8 %).
+TEST_CASE("BDPT agrees with PT per tile on boxes 1 and 3", "[renderer][stat]") {
+  const Tiles tiles = square_tiles();
+  const double alpha = segpath::testing::sidak_alpha(family_alpha, 2 * tiles.count);
+  for (const int box : {1, 3}) {
+    const RenderScene scene = renderer::make_cornell(box, size, size);
+    renderer::MethodOptions options;
+    options.seed = 202;  // PT's camera streams are for_sample(seed, pixel, iteration), as BDPT's: keep them apart
+    const auto bdpt = stats_of(iteration_tile_means("bdpt", options, scene, tiles, 128));
+    const std::string label = "box " + std::to_string(box) + " BDPT";
+    rejections(pt_box(box).tiles(tiles), bdpt, alpha, label, true);
+    CHECK(rejections(pt_box(box).tiles(tiles, 1.05), bdpt, alpha, label + " vs 1.05 PT", false) > 0);
+  }
+}
+
+// VCM at a quarter of the default radius (4 pixel footprints = 0.21 at 64 x 64, so r = 0.052
+// shrinking by alpha = 0.75). Measured at the default radius, VCM's kernel bias on box 1 is at
+// most -4.4 % +- 1.1 % (floor tile 12; -1.7 % on the walls); kernel bias scales like r^2,
+// so at r/4 it is about -0.3 %, below the 0.8-2 % resolution of a tile: a straight Welch test.
+TEST_CASE("VCM at a small radius agrees with PT per tile on box 1", "[renderer][stat]") {
+  const Tiles tiles = square_tiles();
+  const double alpha = segpath::testing::sidak_alpha(family_alpha, tiles.count);
+  const RenderScene scene = renderer::make_cornell(1, size, size);
+  renderer::MethodOptions options;
+  options.seed = 202;
+  options.radius = renderer::pixel_footprint(scene);
+  const auto vcm = stats_of(iteration_tile_means("vcm", options, scene, tiles, 128));
+  rejections(pt_box(1).tiles(tiles), vcm, alpha, "VCM r/4", true);
+  CHECK(rejections(pt_box(1).tiles(tiles, 1.05), vcm, alpha, "VCM r/4 vs 1.05 PT", false) > 0);
+}
+
+// MVF and BDPF are biased: the voxel kernel blurs (bias ~ h^2 in smooth regions, ~ h at
+// edges), and the MMIS denominators are sums over the technique samples that happen to land in
+// each voxel, so 1/D is a ratio estimate whose (upward) bias grows as voxels hold fewer
+// samples. Both render at the default voxel h (4 pixel footprints, 0.21) and at h/2 with the
+// same seed (MVF 256 iterations, BDPF 1024: its floor tiles need them, see below).
+//  - Bias bound at h/2: |method - PT| <= 5 sigma + 2 % of PT per tile. The 2 %: the voxel's
+//    blur is at most that of a disk of radius h/2, and VCM's disk of radius h has at most
+//    -4.4 % kernel bias on box 1, so ~1.1 % at h and ~0.3 % at h/2 by the h^2 scaling (~2.2 %
+//    and ~1.1 % if edge-dominated, scaling like h); MVF's measured tile differences at h and
+//    h/2 are all within 2 sigma of PT (|z| <= 2.0, 16 tiles each).
+//  - Consistency: halving the voxel must not move a tile's estimate away from PT. Per tile,
+//    the paired per-iteration difference (h/2 - h, same seed, so same paths; the clustering
+//    still decorrelates them: ~1.3 % standard error per tile at 256 iterations); a tile fails
+//    when that move is significant (|z| > 5), points the same way as the h/2 difference to PT,
+//    and that difference is itself significant (|z| > 3).
+//    BDPF at 256 iterations: on the four floor tiles (12-15) the difference to PT goes from
+//    +0.3, +0.4, -0.9, +1.7 % at h to +4.7, +5.0, +4.4, +7.0 % at h/2 (moves z 2.7-3.9 each;
+//    with seed 404 +7.9 % and +10.4 % on tiles 12 and 15, z 3.8 and 4.4); with beta = 2 light
+//    paths per pixel instead of 0.25 it is back to -0.9 ... +2.2 %. The bias grows as voxels
+//    hold fewer technique samples: not consistent at a fixed light path count.
+namespace {
+
+void check_filtering_bias(const std::string& name, std::uint64_t iterations) {
+  const Tiles tiles = square_tiles();
+  const RenderScene scene = renderer::make_cornell(1, size, size);
+  const double h = 4 * renderer::pixel_footprint(scene);
+  renderer::MethodOptions options;
+  options.seed = 303;
+  options.radius = h;
+  const auto coarse = iteration_tile_means(name, options, scene, tiles, iterations);
+  options.radius = h / 2;
+  const auto fine = iteration_tile_means(name, options, scene, tiles, iterations);
+  const auto pt = pt_box(1).tiles(tiles);
+  const auto d_coarse = differences(pt, stats_of(coarse));
+  const auto d_fine = differences(pt, stats_of(fine));
+  const auto d_wrong = differences(pt_box(1).tiles(tiles, 1.10), stats_of(fine));
+  std::size_t wrong_rejected = 0;
+  for (std::size_t t = 0; t < tiles.count; ++t) {
+    RunningStats move;
+    for (std::size_t i = 0; i < fine[t].size(); ++i) move.add(fine[t][i] - coarse[t][i]);
+    const double z_move = move.mean() / move.standard_error();
+    const double z_fine = d_fine[t].difference / d_fine[t].sigma;
+    INFO(name << " tile " << t << ": PT " << d_fine[t].pt << "; at h " << d_coarse[t].difference / d_coarse[t].pt * 100
+              << " % +- " << d_coarse[t].sigma / d_coarse[t].pt * 100 << " %; at h/2 "
+              << d_fine[t].difference / d_fine[t].pt * 100 << " % +- " << d_fine[t].sigma / d_fine[t].pt * 100
+              << " % (z " << z_fine << "); move h -> h/2 " << move.mean() / d_fine[t].pt * 100 << " % (z " << z_move << ")");
+    CHECK(std::abs(d_fine[t].difference) <= 5 * d_fine[t].sigma + 0.02 * d_fine[t].pt);
+    const bool away = std::abs(z_move) > 5 && std::abs(z_fine) > 3 && (z_move > 0) == (z_fine > 0);
+    CHECK_FALSE(away);
+    wrong_rejected += std::abs(d_wrong[t].difference) > 5 * d_wrong[t].sigma + 0.02 * d_wrong[t].pt;
+  }
+  // Power of the bound: a reference 10 % too bright fails it somewhere.
+  CHECK(wrong_rejected > 0);
+}
+
+}  // namespace
+
+TEST_CASE("MVF stays within its bias bound of PT on box 1 and converges as the voxel shrinks", "[renderer][stat]") {
+  check_filtering_bias("mvf", 256);
+}
+
+// KNOWN FAILURE, kept as [!shouldfail] so that it still runs and flags the day it passes:
+// BDPF's glossy-floor tiles move away from PT as the voxel halves at beta = 0.25 (tile 12:
+// +1.7 % at h, +7.6 % +- 1.4 % at h/2, move z 7.3; tile 15: +2.8 % -> +9.4 %, z 7.8), while
+// beta = 2 brings them back to -0.9 ... +2.2 %, the diffuse walls and ceiling stay within
+// +-1.6 % at length 10, and the all-diffuse variant of the box (no mirror, Lambertian floor)
+// stays within its kernel bias. The cause is not found yet: not the factorised clusters
+// (identical images without), not failed technique draws (they are now counted), not the light
+// predecessors (the drift stays without them). See segment_filtering.hpp, "Known limits".
+TEST_CASE("BDPF stays within its bias bound of PT on box 1 and converges as the voxel shrinks",
+          "[renderer][stat][!shouldfail]") {
+  check_filtering_bias("bdpf", 1024);
+}
+
+// PhF's camera side is the sensor segment alone (through any mirror chain) and its light paths
+// end at the first specular surface, so every path with a specular vertex between the light
+// and the last diffuse vertex is missing: mirror caustics on the walls and ceiling, and in box
+// 1 (a mirror sphere of radius 0.8) everything lit via the sphere. Compared only on pixels
+// whose every PT sample's first camera hit is diffuse, PhF is 20-64 % darker than PT per tile
+// (measured, z -3 to -16): never brighter beyond the voxel bias bound of the MVF/BDPF test,
+// and darker on some tile.
+TEST_CASE("PhF misses only energy against PT on box 1's diffuse first hits", "[renderer][stat]") {
+  Tiles tiles = square_tiles();
+  const auto& reference = pt_box(1);
+  for (std::size_t p = 0; p < tiles.of.size(); ++p)
+    if (!reference.diffuse_first[p]) tiles.of[p] = -1;
+  const RenderScene scene = renderer::make_cornell(1, size, size);
+  renderer::MethodOptions options;
+  options.seed = 303;
+  const auto d = differences(reference.tiles(tiles), stats_of(iteration_tile_means("phf", options, scene, tiles, 128)));
+  std::size_t darker = 0;
+  for (std::size_t t = 0; t < d.size(); ++t) {
+    if (!(d[t].pt > 0)) continue;
+    INFO("PhF tile " << t << ": PT " << d[t].pt << ", PhF " << d[t].method << " (" << d[t].difference / d[t].pt * 100
+                     << " % +- " << d[t].sigma / d[t].pt * 100 << " %)");
+    CHECK(d[t].difference <= 5 * d[t].sigma + 0.02 * d[t].pt);
+    darker += d[t].difference < -5 * d[t].sigma;
+  }
+  CHECK(darker > 0);
+}
