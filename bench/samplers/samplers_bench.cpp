@@ -8,7 +8,9 @@
 #include <segpath/samplers/bsdf_directed.hpp>
 #include <segpath/samplers/light_next.hpp>
 #include <segpath/samplers/light_start.hpp>
+#include <segpath/samplers/next_segment.hpp>
 #include <segpath/samplers/raytraced.hpp>
+#include <segpath/samplers/sensor_start.hpp>
 #include <segpath/samplers/uniform.hpp>
 #include <segpath/testing/periodic_slab.hpp>
 #include <segpath/testing/sphere_interior.hpp>
@@ -82,6 +84,24 @@ void BM_light_start(benchmark::State& state) {
   run(state, LightStartSampler<testing::SphereInterior<T>>{}, scene, {});
 }
 template <class T>
+void BM_sensor_start(benchmark::State& state) {
+  const auto scene = make_sphere<T>();
+  run(state, SensorStartSampler<testing::SphereInterior<T>>{}, scene, {0});
+}
+template <class T>
+void BM_next_segment_dirac(benchmark::State& state) {
+  const auto scene = make_sphere<T>();
+  const Segment<T> previous = sphere_segment(scene);
+  run(state, NextSegmentSampler<testing::SphereInterior<T>, DiracKernel<T>>{DiracKernel<T>{}}, scene, {previous});
+}
+template <class T>
+void BM_next_segment_disk(benchmark::State& state) {
+  const auto scene = make_slab<T>();
+  const Segment<T> previous{scene.point_on(testing::SlabSide::a, T(1), T(0.2)),
+                            scene.point_on(testing::SlabSide::b, T(0.3), T(-0.4))};
+  run(state, NextSegmentSampler<testing::PeriodicSlab<T>, DiskKernel<T>>{DiskKernel<T>(T(0.3))}, scene, {previous});
+}
+template <class T>
 void BM_light_next_dirac(benchmark::State& state) {
   const auto scene = make_sphere<T>();
   const Segment<T> next = sphere_segment(scene);
@@ -127,6 +147,12 @@ void BM_light_bridge_dirac(benchmark::State& state) {
 
 }  // namespace
 
+BENCHMARK_TEMPLATE(BM_sensor_start, float);
+BENCHMARK_TEMPLATE(BM_sensor_start, double);
+BENCHMARK_TEMPLATE(BM_next_segment_dirac, float);
+BENCHMARK_TEMPLATE(BM_next_segment_dirac, double);
+BENCHMARK_TEMPLATE(BM_next_segment_disk, float);
+BENCHMARK_TEMPLATE(BM_next_segment_disk, double);
 BENCHMARK_TEMPLATE(BM_uniform, float);
 BENCHMARK_TEMPLATE(BM_uniform, double);
 BENCHMARK_TEMPLATE(BM_raytraced, float);
