@@ -7,6 +7,8 @@
 #include <tinyexr.h>
 
 #include <algorithm>
+#include <array>
+#include <cstdio>
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
@@ -53,8 +55,35 @@ void write_image(const examples::Image& image, const std::string& path) {
     std::vector<float> rgb(3 * n);
     for (std::size_t i = 0; i < n; ++i)
       for (int c = 0; c < 3; ++c) rgb[3 * i + std::size_t(c)] = image.pixels[i][c];
+    // tinyexr's SaveEXR convenience function leaks its header (seen with LeakSanitizer on
+    // Debian's libtinyexr 1.0.1), so the header and channel planes are ours here.
+    const std::size_t pixels = std::size_t(image.width) * std::size_t(image.height);
+    std::array<std::vector<float>, 3> planes;  // EXR stores channels in B, G, R order
+    for (int c = 0; c < 3; ++c) {
+      planes[std::size_t(c)].resize(pixels);
+      for (std::size_t i = 0; i < pixels; ++i) planes[std::size_t(c)][i] = rgb[3 * i + std::size_t(2 - c)];
+    }
+    std::array<float*, 3> plane_pointers{planes[0].data(), planes[1].data(), planes[2].data()};
+    std::array<EXRChannelInfo, 3> channels{};
+    const char* names[3] = {"B", "G", "R"};
+    for (int c = 0; c < 3; ++c) {
+      std::snprintf(channels[std::size_t(c)].name, sizeof(channels[std::size_t(c)].name), "%s", names[c]);
+    }
+    std::array<int, 3> pixel_types{TINYEXR_PIXELTYPE_FLOAT, TINYEXR_PIXELTYPE_FLOAT, TINYEXR_PIXELTYPE_FLOAT};
+    EXRHeader header;
+    InitEXRHeader(&header);
+    header.num_channels = 3;
+    header.channels = channels.data();
+    header.pixel_types = pixel_types.data();
+    header.requested_pixel_types = pixel_types.data();
+    EXRImage exr;
+    InitEXRImage(&exr);
+    exr.num_channels = 3;
+    exr.images = reinterpret_cast<unsigned char**>(plane_pointers.data());
+    exr.width = image.width;
+    exr.height = image.height;
     const char* err = nullptr;
-    if (SaveEXR(rgb.data(), image.width, image.height, 3, 0, path.c_str(), &err) != TINYEXR_SUCCESS)
+    if (SaveEXRImageToFile(&exr, &header, path.c_str(), &err) != TINYEXR_SUCCESS)
       throw std::runtime_error("cannot write " + path + ": " + take_exr_error(err));
   } else if (ext == ".png") {
     std::vector<unsigned char> ldr(3 * n);
