@@ -1,5 +1,6 @@
 // Uses an installed segpath: checks a kernel models the Kernel concept and evaluates the
 // geometry term and a disk kernel on a configuration with a known answer.
+#include <segpath/segpath.hpp>  // the umbrella: every installed header but adapters/ and testing/
 #include <segpath/concepts/concepts.hpp>
 #include <segpath/core/geometry.hpp>
 #include <segpath/kernels/disk.hpp>
