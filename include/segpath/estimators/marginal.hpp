@@ -70,23 +70,10 @@ requires std::same_as<typename K::Scalar, typename Scn::Scalar> &&
   [[nodiscard]] std::optional<PathSample<T, MaxLength>> sample(const Scn& scene, const PathQuery& q,
                                                                const Segment<T>& light,
                                                                R& rng) const noexcept {
-    std::optional<PathSample<T, MaxLength>> out;
-    if (q.length < 2 || q.length > MaxLength) return out;
-    const auto first = first_.sample(scene, {q.pixel}, rng);
-    if (!first) return out;
-    out.emplace();
-    out->path.push_back(first->segment);
-    out->pdf = first->pdf;
-    out->delta = first->delta;
-    Vec3<T> direction = first->direction;
-    for (std::size_t i = 1; i + 1 < q.length; ++i) {
-      const auto next = next_.sample(scene, {out->path[i - 1], direction}, rng);
-      if (!next) return std::nullopt;
-      out->path.push_back(next->segment);
-      out->pdf *= next->pdf;
-      out->delta = out->delta || next->delta;
-      direction = next->direction;
-    }
+    if (q.length < 2 || q.length > MaxLength) return std::nullopt;
+    Vec3<T> direction;
+    auto out = detail::sample_sequential_prefix<MaxLength>(scene, first_, next_, q.pixel, q.length - 1, rng, direction);
+    if (!out) return out;
     const Segment<T>& previous = out->path[q.length - 2];
     const Vec2<T> u_junction = uniform2<T>(rng);
     const Vec2<T> u_merge = uniform2<T>(rng);

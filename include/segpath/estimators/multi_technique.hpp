@@ -69,6 +69,33 @@ concept HasPathPdf = requires(const Tech& tech, const Scn& scene, const PathQuer
 template <class Tech, class Scn>
 concept PathOfScene =
     std::same_as<typename Tech::Path, SegmentPath<typename Scn::Scalar, Tech::Path::capacity>>;
+
+/// The first `segments` (>= 1) segments of a sensor-side sequential path: s_1 from the sensor
+/// (N29), then successors (N31), with the product of their densities. `direction` receives
+/// the unit direction of the last segment. nullopt when a draw fails. Every path technique
+/// here starts with this prefix.
+template <std::size_t MaxLength, class Scn, class First, class Next, class R>
+[[nodiscard]] std::optional<PathSample<typename Scn::Scalar, MaxLength>> sample_sequential_prefix(
+    const Scn& scene, const First& first_sampler, const Next& next_sampler, std::uint32_t pixel,
+    std::size_t segments, R& rng, Vec3<typename Scn::Scalar>& direction) noexcept {
+  std::optional<PathSample<typename Scn::Scalar, MaxLength>> out;
+  const auto first = first_sampler.sample(scene, {pixel}, rng);
+  if (!first) return out;
+  out.emplace();
+  out->path.push_back(first->segment);
+  out->pdf = first->pdf;
+  out->delta = first->delta;
+  direction = first->direction;
+  for (std::size_t i = 1; i < segments; ++i) {
+    const auto next = next_sampler.sample(scene, {out->path[i - 1], direction}, rng);
+    if (!next) return std::nullopt;
+    out->path.push_back(next->segment);
+    out->pdf *= next->pdf;
+    out->delta = out->delta || next->delta;
+    direction = next->direction;
+  }
+  return out;
+}
 }  // namespace detail
 
 /// A technique that draws whole segment paths (N36). Syntactic requirements:
@@ -103,23 +130,10 @@ requires std::same_as<typename K::Scalar, typename Scn::Scalar> &&
   template <UniformSource<T> R>
   [[nodiscard]] std::optional<PathSample<T, MaxLength>> sample(const Scn& scene, const PathQuery& q,
                                                                R& rng) const noexcept {
-    std::optional<PathSample<T, MaxLength>> out;
-    if (q.length < 1 || q.length > MaxLength) return out;
-    const auto first = first_.sample(scene, {q.pixel}, rng);
-    if (!first) return out;
-    out.emplace();
-    out->path.push_back(first->segment);
-    out->pdf = first->pdf;
-    out->delta = first->delta;
-    Vec3<T> direction = first->direction;
-    for (std::size_t i = 1; i < q.length; ++i) {
-      const auto next = next_.sample(scene, {out->path[i - 1], direction}, rng);
-      if (!next) return std::nullopt;
-      out->path.push_back(next->segment);
-      out->pdf *= next->pdf;
-      out->delta = out->delta || next->delta;
-      direction = next->direction;
-    }
+    if (q.length < 1 || q.length > MaxLength) return std::nullopt;
+    Vec3<T> direction;
+    auto out = detail::sample_sequential_prefix<MaxLength>(scene, first_, next_, q.pixel, q.length, rng, direction);
+    if (!out) return out;
     if (!(out->pdf > T(0)) || !std::isfinite(out->pdf)) return std::nullopt;
     return out;
   }
@@ -154,23 +168,10 @@ requires std::same_as<typename K::Scalar, typename Scn::Scalar> &&
   template <UniformSource<T> R>
   [[nodiscard]] std::optional<PathSample<T, MaxLength>> sample(const Scn& scene, const PathQuery& q,
                                                                R& rng) const noexcept {
-    std::optional<PathSample<T, MaxLength>> out;
-    if (q.length < 2 || q.length > MaxLength) return out;
-    const auto first = first_.sample(scene, {q.pixel}, rng);
-    if (!first) return out;
-    out.emplace();
-    out->path.push_back(first->segment);
-    out->pdf = first->pdf;
-    out->delta = first->delta;
-    Vec3<T> direction = first->direction;
-    for (std::size_t i = 1; i + 1 < q.length; ++i) {
-      const auto next = next_.sample(scene, {out->path[i - 1], direction}, rng);
-      if (!next) return std::nullopt;
-      out->path.push_back(next->segment);
-      out->pdf *= next->pdf;
-      out->delta = out->delta || next->delta;
-      direction = next->direction;
-    }
+    if (q.length < 2 || q.length > MaxLength) return std::nullopt;
+    Vec3<T> direction;
+    auto out = detail::sample_sequential_prefix<MaxLength>(scene, first_, next_, q.pixel, q.length - 1, rng, direction);
+    if (!out) return out;
     const auto last = bridge_.sample(scene, {out->path[q.length - 2]}, rng);
     if (!last) return std::nullopt;
     out->path.push_back(last->segment);
