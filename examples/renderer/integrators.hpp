@@ -54,6 +54,8 @@ struct MethodOptions {
   std::optional<double> radius;  ///< kernel radius (VCM family) or voxel size (filtering); unset: method default
   std::optional<double> alpha;   ///< progressive reduction, in (0, 1); unset: 0.75 (VCM family), 0.67 (filtering)
   std::optional<double> beta;    ///< light paths per camera path (> 0); unset: 1 (VCM family), 0.25 (filtering)
+  segpath::FilteringSupport support = segpath::FilteringSupport::voxel;  ///< filtering: junction support
+  bool bridges = false;          ///< bdpf: add bridge segments
 };
 
 /// The emitter of a RenderScene by reference: PathTracer copies scene.emitter() once per
@@ -337,9 +339,9 @@ class VcmMethod {
 };
 
 /// MVF, PhF and BDPF (segpath::SegmentFiltering): approximate sequential segments pooled per
-/// iteration, voxel clusters of --radius (default 4x the average pixel footprint) shrinking by
+/// iteration, voxel clusters (or disks of the same area, --support disk) of --radius (default 4x the average pixel footprint) shrinking by
 /// --alpha (default 0.67), beta x #pixels light paths (default 0.25), MMIS weights and
-/// propagation (the paper's Algorithm 1).
+/// propagation (the paper's Algorithm 1); BDPF optionally with bridge segments (--bridges).
 template <segpath::FilteringMode Mode>
 class FilteringMethod {
  public:
@@ -374,6 +376,8 @@ class FilteringMethod {
     f.initial_cell_size = T(o.radius.value_or(0.0));
     f.alpha = T(o.alpha.value_or(0.67));
     f.seed = o.seed;
+    f.support = o.support;
+    f.bridges = o.bridges;
     return f;
   }
   segpath::SegmentFiltering<ThreadCountingScene> filter_;

@@ -47,6 +47,8 @@ struct Options {
   std::size_t max_length = renderer::cornell_max_length;
   std::optional<double> radius;
   std::optional<double> alpha, beta;
+  std::string support = "voxel";
+  bool bridges = false;
   std::vector<std::string> out;
   std::optional<std::string> reference;
   // OBJ scenes only: a look-at camera ("x,y,z" vectors).
@@ -175,6 +177,8 @@ int run(const Options& o) {
   mo.radius = o.radius;
   mo.alpha = o.alpha;
   mo.beta = o.beta;
+  mo.support = o.support == "disk" ? segpath::FilteringSupport::disk : segpath::FilteringSupport::voxel;
+  mo.bridges = o.bridges;
   auto method = renderer::make_method(o.method, mo);
   if (!method) throw std::runtime_error("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
   const renderer::RenderScene scene = load_scene(o);
@@ -266,6 +270,10 @@ int main(int argc, char** argv) {
       ->check(open_unit_interval);
   app.add_option("--beta", o.beta, "light paths per camera path, > 0; default 1 (vcm family), 0.25 (filtering)")
       ->check(positive_finite);
+  app.add_option("--support", o.support, "mvf/phf/bdpf: kernel support of the junctions, voxel (the paper's) or disk")
+      ->check(CLI::IsMember({"voxel", "disk"}))
+      ->capture_default_str();
+  app.add_flag("--bridges", o.bridges, "bdpf: also join camera and light paths by bridge segments");
 #if SEGPATH_RENDER_HAS_OBJ
   app.add_option("--camera-position", o.camera_position, "OBJ scenes: camera position x,y,z")->capture_default_str();
   app.add_option("--camera-target", o.camera_target, "OBJ scenes: point the camera looks at, x,y,z")->capture_default_str();

@@ -22,6 +22,10 @@
 //     light ends (point lights, the sun) only light sampling can produce: D = N_L p_L;
 //  5. propagation over clusters, max_length - 1 Jacobi iterations, from L_e;
 //  6. gather: pixel p += W G L(s_1) / D(s_1) over its sensor segments.
+// Options beyond the paper's defaults: the disk support (every start within r of an end joins
+// it, K = 1 / (pi r^2), pi r^2 = h^2) instead of voxel clusters, and for BDPF bridge segments
+// from camera technique points to light-path starts (the bridge technique of SPEC 1.6), whose
+// density joins every denominator.
 // Known limits (measured, see tests/renderer/methods_test.cpp):
 //  - max_length counts pooled segments and propagation iterations; a chain through specular
 //    vertices is one segment, so paths with specular bounces may be longer than max_length
@@ -29,6 +33,10 @@
 //  - MMIS with compactly supported conditionals is biased by the chance that no technique
 //    sample covers a point (a cluster with no camera technique cannot continue a path): MVF has
 //    no unconditional technique past the sensor segment, so it darkens as voxels empty.
+//  - The disk support with approximate draws is biased O(r) where the density of technique
+//    points varies (disks overlap, so the weights of a junction's candidates sum to one only in
+//    expectation under a uniform density; voxel clusters partition, so they sum to one
+//    exactly): +2.0 % / +0.8 % for MVF at r = 0.28 / 0.14 in the sphere furnace.
 //  - On SmallVCM's box 1 the glossy floor drifts brighter than PT as the voxel shrinks at
 //    beta = 0.25 (+7.6 % +- 1.4 % at half the default voxel), not at beta = 2; not explained yet.
 // Beyond the paper: a cluster whose camera (light) technique points are all Lambertian with
@@ -44,6 +52,7 @@
 #include "segpath/kernels/progressive_radius.hpp"
 #include "segpath/materials/scattering.hpp"
 #include "segpath/propagation/clustering.hpp"
+#include "segpath/propagation/disk_junctions.hpp"
 #include "segpath/propagation/propagate.hpp"
 #include "segpath/samplers/light_start.hpp"
 #include "segpath/samplers/sensor_start.hpp"
@@ -74,6 +83,16 @@ enum class FilteringMode : std::uint8_t {
   return "?";
 }
 
+/// The kernel support of the junctions (SPEC 1.2): the paper's voxel clusters, or disks.
+enum class FilteringSupport : std::uint8_t {
+  voxel,  ///< runs of equal position-and-normal voxel keys; K = 1 / (mean plane area in the voxel)
+  disk,   ///< every start within r of an end (normals agreeing); K = 1 / (pi r^2), r = h / sqrt(pi)
+};
+
+[[nodiscard]] constexpr const char* to_string(FilteringSupport s) noexcept {
+  return s == FilteringSupport::voxel ? "voxel" : "disk";
+}
+
 template <Real T>
 struct FilteringOptions {
   FilteringMode mode = FilteringMode::bdpf;
@@ -81,7 +100,15 @@ struct FilteringOptions {
   T light_path_ratio = T(0.25);  ///< beta: light paths per pixel per iteration (PhF, BDPF)
   T initial_cell_size = 0;       ///< voxel size of iteration 1; 0: 4x the average pixel footprint
   T alpha = T(0.67);             ///< progressive shrinking of the voxel (PPM schedule)
-  bool factorise = true;         ///< use the O(n) sums in factorisable clusters
+  bool factorise = true;         ///< use the O(n) sums in factorisable clusters (voxel support)
+  /// The junctions' support. The disk has the voxel's area (pi r^2 = h^2) but is centred on
+  /// each end, so supports overlap: no quantisation, no factorisation, memory per junction.
+  FilteringSupport support = FilteringSupport::voxel;
+  /// BDPF only: from every camera technique point y_t, one bridge segment to the start x_u of
+  /// a light segment chosen uniformly among the pool's M light-born surface starts, kept when
+  /// visible (SPEC 1.6 bridge, N34, with the approximate kernel draws of N33). Its technique
+  /// density, for every plain segment s, is K(x_s) n_cam(x_s) K(y_s) n_light(y_s) / M.
+  bool bridges = false;
   /// Shift the voxel grid randomly each iteration (quantisation becomes noise). Off, the grid
   /// is aligned with the origin: on a periodic domain (canonical_position) whose period is a
   /// multiple of the voxel size, voxels then tile the fundamental cell exactly.
@@ -91,7 +118,8 @@ struct FilteringOptions {
 
 /// Counters of one iteration (pool size, clusters, how many were factorised).
 struct FilteringStats {
-  std::uint64_t segments = 0, camera_segments = 0, light_segments = 0, clusters = 0;
+  std::uint64_t segments = 0, camera_segments = 0, light_segments = 0, bridge_segments = 0, clusters = 0;
+  std::uint64_t junctions = 0;  ///< disk support: (end, start) pairs within r
   std::uint64_t factorised_camera_clusters = 0, factorised_light_clusters = 0, factorised_transfer_clusters = 0;
   std::uint64_t pair_evaluations = 0;  ///< technique-density and transfer evaluations
   double cell_size = 0;
@@ -114,6 +142,16 @@ class SegmentFiltering {
     if (!(options.initial_cell_size >= T(0)) || !std::isfinite(options.initial_cell_size))
       throw std::invalid_argument("segpath::SegmentFiltering: voxel size must be > 0 (or 0 for automatic), got " +
                                   std::to_string(options.initial_cell_size));
+    if (options.bridges && options.mode != FilteringMode::bdpf)
+      throw std::invalid_argument(std::string("segpath::SegmentFiltering: bridge segments join camera and light paths, "
+                                              "so they need mode bdpf, got ") + to_string(options.mode));
+    if constexpr (HasCanonicalPosition<Scn>) {
+      // A bridge joins two points at their real positions, but its density would have to count
+      // every periodic image of the two supports: it is not defined on a periodic domain.
+      if (options.bridges)
+        throw std::invalid_argument("segpath::SegmentFiltering: bridge segments are not defined on a periodic domain "
+                                    "(a scene with canonical_position)");
+    }
     if (!(options.alpha > T(0) && options.alpha < T(1)))
       throw std::invalid_argument("segpath::SegmentFiltering: alpha must lie in (0, 1), got " + std::to_string(options.alpha));
   }
@@ -144,6 +182,9 @@ class SegmentFiltering {
     return options_.jitter ? VoxelGrid<T>::jittered(cell, options_.seed, iteration) : VoxelGrid<T>(cell);
   }
 
+  /// The disk radius with the area of a voxel face: pi r^2 = h^2.
+  [[nodiscard]] static T disk_radius(T cell) noexcept { return cell / std::sqrt(pi<T>); }
+
   /// The voxel size of `iteration` (>= 1) given the first.
   [[nodiscard]] T cell_size(T initial, std::uint64_t iteration) const {
     return ProgressiveRadius<T>(initial, options_.alpha).radius(iteration);
@@ -158,26 +199,38 @@ class SegmentFiltering {
     build_pool(scene, iteration, pool, parallel_for);
     FilteringStats stats;
     stats.segments = pool.size();
-    for (auto f : pool.flags) (f & camera_born ? stats.camera_segments : stats.light_segments) += 1;
+    for (auto f : pool.flags)
+      (f & camera_born ? stats.camera_segments : f & bridge_segment ? stats.bridge_segments : stats.light_segments) += 1;
     stats.cell_size = double(cell);
 
-    Clustering<T> clustering;
-    cluster(scene, grid(cell, iteration), pool, clustering);
-    stats.clusters = clustering.clusters().size();
-    compute_densities(scene, pool, clustering, stats, parallel_for);
-
-    // Propagation (Algorithm 1) and the per-pixel gather (N40).
+    // Junctions, MMIS denominators, propagation (Algorithm 1), then the per-pixel gather (N40).
     std::vector<S> radiance;
     std::vector<T> weighted_geometry;
-    propagate_pool(scene, pool, clustering, int(options_.max_length) - 1, radiance, weighted_geometry, stats, parallel_for);
+    const int iterations = int(options_.max_length) - 1;
+    std::size_t support_bytes = 0;
+    if (options_.support == FilteringSupport::voxel) {
+      Clustering<T> clustering;
+      cluster(scene, grid(cell, iteration), pool, clustering);
+      stats.clusters = clustering.clusters().size();
+      compute_densities(scene, pool, clustering, stats, parallel_for);
+      propagate_pool(scene, pool, clustering, iterations, radiance, weighted_geometry, stats, parallel_for);
+      support_bytes = clustering.bytes_per_segment();
+    } else {
+      DiskJunctions<T> junctions;
+      join(scene, disk_radius(cell), pool, junctions, parallel_for);
+      stats.junctions = junctions.junction_count();
+      compute_densities(scene, pool, junctions, stats, parallel_for);
+      propagate_pool(scene, pool, junctions, iterations, radiance, weighted_geometry, parallel_for);
+      support_bytes = junctions.bytes_per_segment();
+    }
     for (std::size_t i = 0; i < pool.size(); ++i) {
       if (!(pool.flags[i] & sensor_segment)) continue;
       const S value = radiance[i] * (pool.sensor_weight[i] * weighted_geometry[i]);
       if (is_finite(value)) image.add(pool.pixel[i], value);
       else drops.add(DropReason::non_finite);
     }
-    stats.bytes_per_segment = pool.bytes_per_segment() + clustering.bytes_per_segment() + sizeof(T) +
-                              (options_.factorise ? 3 : 2) * sizeof(S);
+    stats.bytes_per_segment = pool.bytes_per_segment() + support_bytes + sizeof(T) +
+                              (options_.factorise && options_.support == FilteringSupport::voxel ? 3 : 2) * sizeof(S);
     return stats;
   }
 
@@ -190,6 +243,7 @@ class SegmentFiltering {
   static constexpr std::uint8_t light_technique = 16;   ///< a light predecessor draw was attempted from it
   static constexpr std::uint8_t light_start = 32;       ///< drawn by the light-start sampler
   static constexpr std::uint8_t delta_light = 64;       ///< its light end is a Dirac (point light, sun)
+  static constexpr std::uint8_t bridge_segment = 128;   ///< drawn by the bridge technique
 
   /// One iteration's segments, structure of arrays (memory O(#segments)).
   struct Pool {
@@ -199,6 +253,7 @@ class SegmentFiltering {
     std::vector<T> geometry, density, sensor_weight;       ///< G, D and W for sensor segments
     std::vector<std::uint32_t> pixel;
     std::vector<std::uint8_t> flags;
+    std::uint64_t bridge_targets = 0;  ///< M: light-born segments with a surface x (bridges on)
     [[nodiscard]] std::size_t size() const noexcept { return segments.size(); }
     [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
       return sizeof(Segment<T>) + 2 * sizeof(Vec3<T>) + 2 * sizeof(S) + 3 * sizeof(T) + sizeof(std::uint32_t) + 1;
@@ -241,29 +296,73 @@ class SegmentFiltering {
     auto reserve = [&](auto& v) { v.reserve(total); };
     reserve(pool.segments), reserve(pool.first_direction), reserve(pool.last_direction), reserve(pool.chain);
     reserve(pool.geometry), reserve(pool.sensor_weight), reserve(pool.pixel), reserve(pool.flags);
-    const auto& emitter = scene.emitter();
-    auto append = [&](const Record& r) {
-      pool.segments.push_back(r.segment);
-      pool.first_direction.push_back(r.first_direction);
-      pool.last_direction.push_back(r.last_direction);
-      pool.chain.push_back(r.chain);
-      pool.geometry.push_back(r.geometry);
-      pool.sensor_weight.push_back(r.sensor_weight);
-      pool.pixel.push_back(r.pixel);
-      pool.flags.push_back(r.flags);
-    };
     for (const auto& chunk : camera)
-      for (const auto& r : chunk) append(r);
+      for (const auto& r : chunk) append(pool, r);
     for (const auto& chunk : light)
-      for (const auto& r : chunk) append(r);
-    pool.emitted.resize(total);
-    for (std::size_t i = 0; i < total; ++i)
+      for (const auto& r : chunk) append(pool, r);
+    if (options_.bridges) add_bridges(scene, iteration, pool, parallel_for);
+    const auto& emitter = scene.emitter();
+    pool.emitted.resize(pool.size());
+    for (std::size_t i = 0; i < pool.size(); ++i)
       pool.emitted[i] = emitter.radiance(EmissionQuery<T>{pool.segments[i].y, -pool.last_direction[i]}) * pool.chain[i];
-    pool.density.assign(total, T(0));
-    (void)iteration;
+    pool.density.assign(pool.size(), T(0));
+  }
+
+  /// The targets of bridge segments: light-born segments whose x is a surface point.
+  [[nodiscard]] static bool is_bridge_target(const Pool& pool, std::size_t i) noexcept {
+    return !(pool.flags[i] & (camera_born | bridge_segment)) && pool.segments[i].x.kind == PointKind::surface;
   }
 
  private:
+  static void append(Pool& pool, const Record& r) {
+    pool.segments.push_back(r.segment);
+    pool.first_direction.push_back(r.first_direction);
+    pool.last_direction.push_back(r.last_direction);
+    pool.chain.push_back(r.chain);
+    pool.geometry.push_back(r.geometry);
+    pool.sensor_weight.push_back(r.sensor_weight);
+    pool.pixel.push_back(r.pixel);
+    pool.flags.push_back(r.flags);
+  }
+
+  /// Bridge segments (BDPF option): every camera technique point y_t draws one light-born
+  /// start x_u uniformly among the M targets and, when the two see each other, adds the
+  /// segment y_t -> x_u. Failed draws (invisible, degenerate) still count as technique samples
+  /// in the density (compute_densities), as for the other samplers.
+  template <class P>
+  void add_bridges(const Scn& scene, std::uint64_t iteration, Pool& pool, const P& parallel_for) const {
+    std::vector<std::uint32_t> targets, sources;
+    for (std::uint32_t i = 0; i < pool.size(); ++i) {
+      if (is_bridge_target(pool, i)) targets.push_back(i);
+      if (pool.flags[i] & camera_technique) sources.push_back(i);
+    }
+    pool.bridge_targets = targets.size();
+    if (targets.empty()) return;
+    std::vector<std::vector<Record>> bridges(chunk_count);
+    parallel_for(chunk_count, [&](std::size_t c) {
+      const std::size_t j0 = sources.size() * c / chunk_count, j1 = sources.size() * (c + 1) / chunk_count;
+      for (std::size_t j = j0; j < j1; ++j) {
+        const std::uint32_t t = sources[j];
+        Pcg32 rng = Pcg32::for_sample(options_.seed ^ 0x627269646765ULL /* "bridge" */, t, iteration);
+        const auto pick = std::min<std::size_t>(targets.size() - 1, std::size_t(rng.template uniform<double>() * double(targets.size())));
+        Record r;
+        r.segment = Segment<T>{pool.segments[t].y, pool.segments[targets[pick]].x};
+        const Vec3<T> d = r.segment.y.position - r.segment.x.position;
+        const T distance = std::sqrt(glm::dot(d, d));
+        if (!(distance > T(0)) || !std::isfinite(distance)) continue;
+        if (!scene.visible(VisibilityQuery<T>{r.segment.x, r.segment.y})) continue;
+        r.first_direction = r.last_direction = d / distance;
+        r.chain = S(T(1));
+        r.geometry = geometry_term(r.segment, r.first_direction, distance);
+        r.flags = bridge_segment;
+        if (!(r.geometry > T(0))) continue;
+        bridges[c].push_back(r);
+      }
+    });
+    for (const auto& chunk : bridges)
+      for (const auto& r : chunk) append(pool, r);
+  }
+
   /// One camera path: the sensor segment, then approximate successors (N33) from each
   /// non-delta end; delta bounces extend the current segment into a chain. MVF and BDPF go
   /// to max_length segments (delta bounces count), PhF keeps only the sensor segment.
@@ -432,7 +531,36 @@ class SegmentFiltering {
     }
   }
 
-  /// Step 4: the MMIS denominators D(s) of every pooled segment (N39).
+  /// The disk support's junctions of a pool (by canonical position where the scene has one).
+  template <class P = SerialFor>
+  void join(const Scn& scene, T radius, const Pool& pool, DiskJunctions<T>& junctions, const P& parallel_for = {}) const {
+    if constexpr (HasCanonicalPosition<Scn>) {
+      junctions.build(radius, std::span<const Segment<T>>(pool.segments),
+                      [&](const SurfacePoint<T>& p) { return scene.canonical_position(p); }, T(0.5), parallel_for);
+    } else {
+      junctions.build(radius, std::span<const Segment<T>>(pool.segments), [](const SurfacePoint<T>& p) { return p.position; },
+                      T(0.5), parallel_for);
+    }
+  }
+
+  /// Step 5 over the disk support (no factorisation: every end has its own disk).
+  template <class P = SerialFor>
+  void propagate_pool(const Scn& scene, const Pool& pool, const DiskJunctions<T>& junctions, int iterations,
+                      std::vector<S>& radiance, std::vector<T>& weighted_geometry, const P& parallel_for = {}) const {
+    weighted_geometry.resize(pool.size());
+    for (std::size_t i = 0; i < pool.size(); ++i)
+      weighted_geometry[i] = pool.density[i] > T(0) ? pool.geometry[i] / pool.density[i] : T(0);
+    const auto& bsdf = scene.bsdf();
+    auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
+      const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});
+      return f * pool.chain[s];
+    };
+    const DiskPropagationInputs<S, decltype(link)> inputs{junctions, pool.emitted, weighted_geometry, link};
+    std::vector<S> scratch;
+    propagate(inputs, iterations, radiance, scratch, parallel_for);
+  }
+
+  /// Step 4: the MMIS denominators D(s) of every pooled segment (N39), voxel support.
   template <class P>
   void compute_densities(const Scn& scene, Pool& pool, const Clustering<T>& clustering, FilteringStats& stats,
                          const P& parallel_for) const {
@@ -442,12 +570,16 @@ class SegmentFiltering {
     std::vector<T> camera_sum(pool.size(), T(0)), light_sum(pool.size(), T(0));
     std::vector<std::uint64_t> pairs(clusters.size(), 0);
     std::vector<std::uint8_t> camera_fact(clusters.size(), 0), light_fact(clusters.size(), 0);
+    std::vector<std::uint32_t> camera_points(clusters.size(), 0), bridge_targets(clusters.size(), 0);
     parallel_for(clusters.size(), [&](std::size_t c) {
       const Cluster<T>& cl = clusters[c];
       // Camera technique samples: segments ending here that were continued; they could draw any
       // segment starting here (x' in the voxel). Density (N31) with the voxel kernel K_C.
       std::uint32_t m = 0;
       for (std::uint32_t q = cl.middle; q < cl.end; ++q) m += (pool.flags[refs[q].segment] & camera_technique) ? 1 : 0;
+      camera_points[c] = m;
+      if (options_.bridges)
+        for (std::uint32_t q = cl.begin; q < cl.middle; ++q) bridge_targets[c] += is_bridge_target(pool, refs[q].segment) ? 1 : 0;
       if (m > 0) {
         const auto y_of = [&](std::uint32_t s) -> const SurfacePoint<T>& { return pool.segments[s].y; };
         std::optional<Vec3<T>> common;
@@ -464,8 +596,7 @@ class SegmentFiltering {
           }
         for (std::uint32_t r = cl.begin; r < cl.middle; ++r) {
           const std::uint32_t sp = refs[r].segment;
-          // Any segment starting here (camera- or light-born) but a Dirac light end.
-          if (pool.flags[sp] & delta_light) continue;
+          if (!camera_reachable(pool, sp)) continue;
           const Vec3<T>& w = pool.first_direction[sp];
           T sum = T(0);
           if (common) {
@@ -477,14 +608,11 @@ class SegmentFiltering {
             for (std::uint32_t q = cl.middle; q < cl.end; ++q) {
               const std::uint32_t t = refs[q].segment;
               if (!(pool.flags[t] & camera_technique)) continue;
-              sum += bsdf.pdf(BsdfQuery<T>{pool.segments[t].y, -pool.last_direction[t], w, Transport::radiance});
+              sum += camera_technique_pdf(bsdf, pool, t, sp);
               pairs[c] += 1;
             }
           }
-          const T measure = (pool.flags[sp] & chain_segment)
-                                ? T(1)
-                                : solid_angle_to_area(T(1), pool.segments[sp].x, pool.segments[sp].y);
-          camera_sum[sp] = cl.kernel * sum * measure;
+          camera_sum[sp] = cl.kernel * sum * camera_measure(pool, sp);
         }
       }
       // Light technique samples: segments starting here that were continued backwards; they
@@ -506,9 +634,7 @@ class SegmentFiltering {
           }
         for (std::uint32_t r = cl.middle; r < cl.end; ++r) {
           const std::uint32_t sp = refs[r].segment;
-          // Light predecessors end their ray at a surface hit: they never draw a segment whose
-          // x is off the manifold (a sensor segment), a chain, or a Dirac light end.
-          if ((pool.flags[sp] & (chain_segment | delta_light)) || pool.segments[sp].x.kind != PointKind::surface) continue;
+          if (!light_reachable(pool, sp)) continue;
           const Vec3<T> to_sensor = -pool.last_direction[sp];
           T sum = T(0);
           if (common) {
@@ -519,11 +645,11 @@ class SegmentFiltering {
             for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
               const std::uint32_t t = refs[q].segment;
               if (!(pool.flags[t] & light_technique)) continue;
-              sum += bsdf.pdf(BsdfQuery<T>{pool.segments[t].x, to_sensor, pool.first_direction[t], Transport::importance});
+              sum += light_technique_pdf(bsdf, pool, t, sp);
               pairs[c] += 1;
             }
           }
-          light_sum[sp] = cl.kernel * sum * solid_angle_to_area(T(1), pool.segments[sp].y, pool.segments[sp].x);
+          light_sum[sp] = cl.kernel * sum * light_measure(pool, sp);
         }
       }
     });
@@ -532,12 +658,103 @@ class SegmentFiltering {
       stats.factorised_camera_clusters += camera_fact[c];
       stats.factorised_light_clusters += light_fact[c];
     }
-    // The unconditional techniques and the total.
+    // Bridge technique: K(x) n_cam(C(x)) K(y) n_light(C(y)) / M.
+    std::vector<T> bridge_sum;
+    if (options_.bridges && pool.bridge_targets > 0) {
+      bridge_sum.assign(pool.size(), T(0));
+      parallel_for(pool.size(), [&](std::size_t i) {
+        const std::uint32_t cx = clustering.cluster_of_x(std::uint32_t(i)), cy = clustering.cluster_of_y(std::uint32_t(i));
+        if (cx == no_cluster || cy == no_cluster || !bridge_reachable(pool, i)) return;
+        bridge_sum[i] = clusters[cx].kernel * T(camera_points[cx]) * clusters[cy].kernel * T(bridge_targets[cy]) /
+                        T(pool.bridge_targets);
+      });
+    }
+    finish_densities(scene, pool, camera_sum, light_sum, bridge_sum, parallel_for);
+  }
+
+  /// Step 4 over the disk support: the technique samples of a segment are its neighbour lists
+  /// (every camera technique end whose disk holds x_s, every light technique start in the disk
+  /// of y_s), K = 1 / (pi r^2).
+  template <class P>
+  void compute_densities(const Scn& scene, Pool& pool, const DiskJunctions<T>& junctions, FilteringStats& stats,
+                         const P& parallel_for) const {
+    const auto& bsdf = scene.bsdf();
+    const T kernel = junctions.kernel();
+    const bool bridges = options_.bridges && pool.bridge_targets > 0;
+    std::vector<T> camera_sum(pool.size(), T(0)), light_sum(pool.size(), T(0)), bridge_sum(bridges ? pool.size() : 0, T(0));
+    constexpr std::size_t chunk = 1024;
+    const std::size_t chunks = (pool.size() + chunk - 1) / chunk;
+    std::vector<std::uint64_t> pairs(chunks, 0);
+    parallel_for(chunks, [&](std::size_t c) {
+      for (std::size_t i = c * chunk; i < std::min(pool.size(), (c + 1) * chunk); ++i) {
+        const auto sp = std::uint32_t(i);
+        std::uint32_t camera_points = 0, targets = 0;
+        T sum = T(0);
+        for (const std::uint32_t t : junctions.ending_near(sp)) {
+          if (!(pool.flags[t] & camera_technique)) continue;
+          ++camera_points;
+          if (!camera_reachable(pool, sp)) continue;
+          sum += camera_technique_pdf(bsdf, pool, t, sp);
+          pairs[c] += 1;
+        }
+        if (sum > T(0)) camera_sum[sp] = kernel * sum * camera_measure(pool, sp);
+        sum = T(0);
+        for (const std::uint32_t u : junctions.starting_near(sp)) {
+          targets += (bridges && is_bridge_target(pool, u)) ? 1 : 0;
+          if (!(pool.flags[u] & light_technique) || !light_reachable(pool, sp)) continue;
+          sum += light_technique_pdf(bsdf, pool, u, sp);
+          pairs[c] += 1;
+        }
+        if (sum > T(0)) light_sum[sp] = kernel * sum * light_measure(pool, sp);
+        if (bridges && bridge_reachable(pool, sp))
+          bridge_sum[sp] = kernel * T(camera_points) * kernel * T(targets) / T(pool.bridge_targets);
+      }
+    });
+    for (const auto p : pairs) stats.pair_evaluations += p;
+    finish_densities(scene, pool, camera_sum, light_sum, bridge_sum, parallel_for);
+  }
+
+ private:
+  /// Which segments each conditional technique can produce: a camera successor any segment
+  /// but one with a Dirac light end (N31); a light predecessor ends its ray at a surface hit,
+  /// so never a segment whose x is off the manifold (a sensor segment), a chain, or a Dirac
+  /// light end; a bridge any straight segment between two surface points.
+  [[nodiscard]] static bool camera_reachable(const Pool& pool, std::size_t s) noexcept { return !(pool.flags[s] & delta_light); }
+  [[nodiscard]] static bool light_reachable(const Pool& pool, std::size_t s) noexcept {
+    return !(pool.flags[s] & (chain_segment | delta_light)) && pool.segments[s].x.kind == PointKind::surface;
+  }
+  [[nodiscard]] static bool bridge_reachable(const Pool& pool, std::size_t s) noexcept {
+    return !(pool.flags[s] & (chain_segment | delta_light)) && pool.segments[s].x.kind == PointKind::surface &&
+           pool.segments[s].y.kind == PointKind::surface;
+  }
+  /// p_w(s' | t) of the camera successor from t's end y_t (solid angle at y_t).
+  template <class B>
+  [[nodiscard]] static T camera_technique_pdf(const B& bsdf, const Pool& pool, std::uint32_t t, std::uint32_t sp) noexcept {
+    return bsdf.pdf(BsdfQuery<T>{pool.segments[t].y, -pool.last_direction[t], pool.first_direction[sp], Transport::radiance});
+  }
+  /// p_w(-s' | u) of the light predecessor from u's start x_u (solid angle at x_u).
+  template <class B>
+  [[nodiscard]] static T light_technique_pdf(const B& bsdf, const Pool& pool, std::uint32_t u, std::uint32_t sp) noexcept {
+    return bsdf.pdf(BsdfQuery<T>{pool.segments[u].x, -pool.last_direction[sp], pool.first_direction[u], Transport::importance});
+  }
+  /// Solid angle at the technique point to the segment's measure: area at y (plain segments);
+  /// chains are measured in solid angle at x already.
+  [[nodiscard]] static T camera_measure(const Pool& pool, std::size_t s) noexcept {
+    return (pool.flags[s] & chain_segment) ? T(1) : solid_angle_to_area(T(1), pool.segments[s].x, pool.segments[s].y);
+  }
+  [[nodiscard]] static T light_measure(const Pool& pool, std::size_t s) noexcept {
+    return solid_angle_to_area(T(1), pool.segments[s].y, pool.segments[s].x);
+  }
+
+  /// The unconditional techniques (sensor, light start) and the total D(s).
+  template <class P>
+  void finish_densities(const Scn& scene, Pool& pool, const std::vector<T>& camera_sum, const std::vector<T>& light_sum,
+                        const std::vector<T>& bridge_sum, const P& parallel_for) const {
     const std::uint64_t light_paths = light_path_count(scene);
     parallel_for(pool.size(), [&](std::size_t i) {
       const std::uint8_t f = pool.flags[i];
       const Segment<T>& s = pool.segments[i];
-      T d = camera_sum[i] + light_sum[i];
+      T d = camera_sum[i] + light_sum[i] + (bridge_sum.empty() ? T(0) : bridge_sum[i]);
       if (f & sensor_segment) {
         const SensorPdf<T> p = scene.sensor().pdf(SensorQuery<T>{s.x, pool.first_direction[i]});
         d += p.position * p.direction * ((f & chain_segment) ? T(1) : solid_angle_to_area(T(1), s.x, s.y));
@@ -559,7 +776,6 @@ class SegmentFiltering {
     });
   }
 
- private:
   /// Where every segment ending in a cluster has a Lambertian end with one normal, and every
   /// segment starting there leaves above it, f_r(s, s') = chain(s) albedo(y_s) / pi: the
   /// propagation sum is computed once per cluster.

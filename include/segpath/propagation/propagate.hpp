@@ -9,7 +9,9 @@
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/spectrum.hpp"
 #include "segpath/propagation/clustering.hpp"
+#include "segpath/propagation/disk_junctions.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <span>
 #include <stdexcept>
@@ -85,6 +87,49 @@ void propagate(const PropagationInputs<S, Link>& in, int iterations, std::vector
       }
     });
     // Segments whose y end is in no cluster (a light at infinity, a point light) keep L_e.
+    std::swap(radiance, scratch);
+  }
+}
+
+/// The same iteration over the disk support (propagation/disk_junctions.hpp): each out(s) sums
+/// over starting_near(s), in increasing id order, with the one kernel value 1 / (pi r^2).
+/// Cost per iteration: the number of junctions; parallel over segments, deterministic.
+template <Spectrum S, class Link>
+struct DiskPropagationInputs {
+  using T = spectrum_scalar_t<S>;
+  const DiskJunctions<T>& junctions;
+  std::span<const S> emitted;
+  std::span<const T> weighted_geometry;
+  Link link;
+};
+
+template <Spectrum S, class Link, ParallelFor P = SerialFor>
+void propagate(const DiskPropagationInputs<S, Link>& in, int iterations, std::vector<S>& radiance, std::vector<S>& scratch,
+               const P& parallel_for = {}) {
+  using T = spectrum_scalar_t<S>;
+  if (iterations < 1) throw std::invalid_argument("segpath::propagate: iterations must be >= 1");
+  const std::size_t n = in.emitted.size();
+  if (in.weighted_geometry.size() != n || in.junctions.segment_count() != n)
+    throw std::invalid_argument("segpath::propagate: emitted, weighted_geometry and the junctions differ in size");
+  radiance.assign(in.emitted.begin(), in.emitted.end());
+  scratch.assign(in.emitted.begin(), in.emitted.end());
+  const T kernel = in.junctions.kernel();
+  constexpr std::size_t chunk = 1024;
+  const std::size_t chunks = (n + chunk - 1) / chunk;
+  for (int k = 0; k < iterations; ++k) {
+    const std::vector<S>& current = radiance;
+    std::vector<S>& next = scratch;
+    parallel_for(chunks, [&](std::size_t c) {
+      for (std::size_t s = c * chunk; s < std::min(n, (c + 1) * chunk); ++s) {
+        S sum(T(0));
+        for (const std::uint32_t sp : in.junctions.starting_near(std::uint32_t(s))) {
+          const T wg = in.weighted_geometry[sp];
+          if (wg == T(0)) continue;
+          sum += in.link(std::uint32_t(s), sp) * (current[sp] * wg);
+        }
+        next[s] = in.emitted[s] + sum * kernel;
+      }
+    });
     std::swap(radiance, scratch);
   }
 }
