@@ -51,6 +51,7 @@
 #include "segpath/materials/phong.hpp"
 #include "segpath/materials/scattering.hpp"
 #include "segpath/propagation/clustering.hpp"
+#include "segpath/propagation/disk_junctions.hpp"
 #include "segpath/propagation/plane_box_area.hpp"
 #include "segpath/propagation/propagate.hpp"
 #include "segpath/propagation/voxel_grid.hpp"
