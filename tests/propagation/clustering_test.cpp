@@ -108,3 +108,60 @@ TEMPLATE_TEST_CASE("clusters are exactly the runs of equal endpoint keys", "[pro
   // An axis-aligned normal in the cell: the kernel is 1 / h^2 up to the mean-normal tilt.
   CHECK(clustering.bytes_per_segment() > 0);
 }
+
+TEMPLATE_TEST_CASE("slots number each end's refs in cluster order; renumbering keeps the clusters", "[propagation]", float,
+                   double) {
+  using T = TestType;
+  Pcg32 rng(31, 4);
+  std::vector<Segment<T>> segments;
+  for (int i = 0; i < 2000; ++i) {
+    auto point = [&] {
+      if (rng.uniform<T>() < T(0.05)) return SurfacePoint<T>::at_infinity({0, 0, 1});  // in no cluster
+      return SurfacePoint<T>::on_surface({rng.uniform<T>() * 3, rng.uniform<T>() * 3, T(0.5)}, {0, 0, 1});
+    };
+    segments.push_back({point(), point()});
+  }
+  Clustering<T> clustering;
+  clustering.build(VoxelGrid<T>(T(0.4)), segments);
+  const auto refs = clustering.refs();
+  std::size_t starting = 0, ending = 0;
+  for (const auto& c : clustering.clusters()) {
+    CHECK(c.slot == starting);
+    for (std::uint32_t r = c.begin; r < c.middle; ++r) CHECK(clustering.starting_segments()[c.starting_slot(r)] == refs[r].segment);
+    for (std::uint32_t r = c.middle; r < c.end; ++r) CHECK(clustering.ending_segments()[c.ending_slot(r)] == refs[r].segment);
+    CHECK(c.ending_slot(c.middle) == ending);
+    starting += c.starting_count();
+    ending += c.ending_count();
+  }
+  CHECK(clustering.starting_slot_count() == starting);
+  CHECK(clustering.ending_slot_count() == ending);
+  REQUIRE(ending < segments.size());  // some segments end in no cluster
+
+  const Clustering<T> before = clustering;
+  std::vector<std::uint32_t> new_id;
+  clustering.ending_order(new_id);
+  clustering.renumber(new_id);
+  // Segments ending in a cluster are numbered by ending slot; the rest follow in their order.
+  for (std::uint32_t i = 0; i < ending; ++i) CHECK(clustering.ending_segments()[i] == i);
+  std::uint32_t previous_unclustered = 0;
+  for (std::uint32_t old = 0; old < segments.size(); ++old) {
+    CHECK(clustering.cluster_of_x(new_id[old]) == before.cluster_of_x(old));
+    CHECK(clustering.cluster_of_y(new_id[old]) == before.cluster_of_y(old));
+    if (before.cluster_of_y(old) == no_cluster) {
+      CHECK(new_id[old] >= previous_unclustered);
+      previous_unclustered = new_id[old];
+    }
+  }
+  for (std::size_t r = 0; r < refs.size(); ++r) {
+    CHECK(clustering.refs()[r].key == before.refs()[r].key);
+    CHECK(clustering.refs()[r].segment == new_id[before.refs()[r].segment]);
+  }
+  for (std::size_t j = 0; j < starting; ++j)
+    CHECK(clustering.starting_segments()[j] == new_id[before.starting_segments()[j]]);
+
+  std::vector<std::uint32_t> bad(new_id);
+  bad[1] = bad[0];
+  CHECK_THROWS_AS(clustering.renumber(bad), std::invalid_argument);
+  bad.pop_back();
+  CHECK_THROWS_AS(clustering.renumber(bad), std::invalid_argument);
+}
