@@ -87,55 +87,6 @@ TEST_CASE("factorised clusters give the same radiance as the general O(n m) sum"
   }
 }
 
-TEST_CASE("propagation does not depend on the numbering of the segments, nor on the form of the link", "[propagation]") {
-  // Renumbered in ending order (as segment filtering does), with the pool permuted alike, every
-  // segment gets bit for bit the same radiance; a link reading per-slot copies gives the same.
-  Pcg32 rng(5, 6);
-  int nontrivial = 0;
-  for (int trial = 0; trial < 300; ++trial) {
-    const RandomPool pool = make_pool(rng);
-    Clustering<double> clustering;
-    clustering.build(VoxelGrid<double>(1.0), pool.segments);
-    std::vector<std::uint8_t> factorised(clustering.clusters().size());
-    for (auto& f : factorised) f = rng.uniform<double>() < 0.3 ? 1 : 0;
-    auto link = [&](std::uint32_t s, std::uint32_t sp) {
-      const std::uint32_t c = clustering.cluster_of_y(s);
-      return c != no_cluster && factorised[c] ? pool.diffuse[s] : pool.link_table[s * pool.n + sp];
-    };
-    const PropagationInputs<double, decltype(link)> original{clustering, pool.emitted, pool.weighted_geometry, link,
-                                                             pool.diffuse, factorised};
-    std::vector<double> a, scratch;
-    propagate(original, 4, a, scratch);
-
-    std::vector<std::uint32_t> new_id, old_id(pool.n);
-    clustering.ending_order(new_id);
-    for (std::uint32_t i = 0; i < pool.n; ++i) old_id[new_id[i]] = i;
-    Clustering<double> renumbered = clustering;
-    renumbered.renumber(new_id);
-    std::vector<double> emitted(pool.n), weighted_geometry(pool.n), diffuse(pool.n);
-    for (std::uint32_t i = 0; i < pool.n; ++i) {
-      emitted[i] = pool.emitted[old_id[i]];
-      weighted_geometry[i] = pool.weighted_geometry[old_id[i]];
-      diffuse[i] = pool.diffuse[old_id[i]];
-    }
-    // The slot form: the ending and starting segments' old ids, looked up per slot.
-    std::vector<std::uint32_t> ending_old(renumbered.ending_slot_count()), starting_old(renumbered.starting_slot_count());
-    for (std::size_t i = 0; i < ending_old.size(); ++i) ending_old[i] = old_id[renumbered.ending_segments()[i]];
-    for (std::size_t j = 0; j < starting_old.size(); ++j) starting_old[j] = old_id[renumbered.starting_segments()[j]];
-    auto slot_link = [&](std::uint32_t, std::uint32_t, std::uint32_t i, std::uint32_t j) { return link(ending_old[i], starting_old[j]); };
-    const PropagationInputs<double, decltype(slot_link)> permuted{renumbered, emitted, weighted_geometry, slot_link, diffuse,
-                                                                  factorised};
-    std::vector<double> b;
-    PropagationWorkspace<double> workspace;
-    propagate(permuted, 4, b, workspace);
-    for (std::uint32_t i = 0; i < pool.n; ++i) {
-      CHECK(b[new_id[i]] == a[i]);
-      if (a[i] != pool.emitted[i]) ++nontrivial;
-    }
-  }
-  CHECK(nontrivial > 300);
-}
-
 TEST_CASE("propagation rejects bad input", "[propagation]") {
   Clustering<double> clustering;
   std::vector<Segment<double>> none;

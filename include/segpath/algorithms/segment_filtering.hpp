@@ -13,10 +13,7 @@
 //     path ends at a delta surface (light-born chains would need the other side's density in
 //     a common measure), so every chain comes from the camera side only and needs no other
 //     technique in its MMIS sum;
-//  3. endpoints are clustered on a jittered voxel grid whose cell shrinks like a PPM radius,
-//     and the pool is renumbered in the order of the segments' y-end clusters, so that the
-//     per-cluster loops below read and write the pool in order (a permutation: the per-cluster
-//     sums keep their order and the image its value);
+//  3. endpoints are clustered on a jittered voxel grid whose cell shrinks like a PPM radius;
 //  4. every segment's MMIS denominator (N39)
 //       D(s) = [sensor] n_p p_W(s) + [light end] N_L p_L(s)
 //            + K_C(x) sum_{camera technique samples t ending in C(x)} p_w(s^ | y_t, s_t) |n_y . s^| / d^2
@@ -67,8 +64,6 @@
 #include <span>
 #include <stdexcept>
 #include <string>
-#include <type_traits>
-#include <utility>
 #include <vector>
 
 namespace segpath {
@@ -212,18 +207,14 @@ class SegmentFiltering {
     std::vector<S> radiance;
     std::vector<T> weighted_geometry;
     const int iterations = int(options_.max_length) - 1;
-    std::size_t support_bytes = 0, propagation_bytes = 0;
+    std::size_t support_bytes = 0;
     if (options_.support == FilteringSupport::voxel) {
       Clustering<T> clustering;
       cluster(scene, grid(cell, iteration), pool, clustering);
-      order_pool(pool, clustering, parallel_for);
       stats.clusters = clustering.clusters().size();
       compute_densities(scene, pool, clustering, stats, parallel_for);
       propagate_pool(scene, pool, clustering, iterations, radiance, weighted_geometry, stats, parallel_for);
       support_bytes = clustering.bytes_per_segment();
-      // Propagation: diffuse when factorising, the transfer and the workspace.
-      propagation_bytes = (options_.factorise ? sizeof(S) : 0) + Transfer::bytes_per_segment() +
-                          PropagationWorkspace<S>::bytes_per_segment;
     } else {
       DiskJunctions<T> junctions;
       join(scene, disk_radius(cell), pool, junctions, parallel_for);
@@ -231,7 +222,6 @@ class SegmentFiltering {
       compute_densities(scene, pool, junctions, stats, parallel_for);
       propagate_pool(scene, pool, junctions, iterations, radiance, weighted_geometry, parallel_for);
       support_bytes = junctions.bytes_per_segment();
-      propagation_bytes = sizeof(S);  // the second radiance buffer
     }
     for (std::size_t i = 0; i < pool.size(); ++i) {
       if (!(pool.flags[i] & sensor_segment)) continue;
@@ -239,7 +229,8 @@ class SegmentFiltering {
       if (is_finite(value)) image.add(pool.pixel[i], value);
       else drops.add(DropReason::non_finite);
     }
-    stats.bytes_per_segment = pool.bytes_per_segment() + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes;
+    stats.bytes_per_segment = pool.bytes_per_segment() + support_bytes + sizeof(T) +
+                              (options_.factorise && options_.support == FilteringSupport::voxel ? 3 : 2) * sizeof(S);
     return stats;
   }
 
@@ -508,53 +499,6 @@ class SegmentFiltering {
   }
 
  public:
-  /// f_r(s, s') chain(s) (N20) as propagation evaluates it, from copies laid out by slot
-  /// (propagation/clustering.hpp): per ending slot what the BSDF needs of the ending segment,
-  /// per starting slot the starting direction. With the pool in ending order (order_pool) the
-  /// copies are made in order, and every read of a propagation iteration is in order. Memory:
-  /// sizeof(Ending) + sizeof(Vec3) per segment at most.
-  struct Transfer {
-    struct Ending {
-      SurfacePoint<T> y;
-      Vec3<T> outgoing;  ///< -last_direction: from y back along the segment
-      S chain;
-    };
-    std::vector<Ending> ending;
-    std::vector<Vec3<T>> starting_direction;
-
-    /// Fills both; skips the ending side of clusters marked in `factorised` (where
-    /// propagation never evaluates the link), if given.
-    template <class P = SerialFor>
-    void build(const Pool& pool, const Clustering<T>& clustering, std::span<const std::uint8_t> factorised = {},
-               const P& parallel_for = {}) {
-      const auto clusters = clustering.clusters();
-      const auto refs = clustering.refs();
-      ending.resize(clustering.ending_slot_count());
-      starting_direction.resize(clustering.starting_slot_count());
-      parallel_for(clusters.size(), [&](std::size_t c) {
-        const Cluster<T>& cl = clusters[c];
-        for (std::uint32_t r = cl.begin; r < cl.middle; ++r)
-          starting_direction[cl.starting_slot(r)] = pool.first_direction[refs[r].segment];
-        if (!factorised.empty() && factorised[c]) return;
-        for (std::uint32_t r = cl.middle; r < cl.end; ++r) {
-          const std::uint32_t s = refs[r].segment;
-          ending[cl.ending_slot(r)] = Ending{pool.segments[s].y, -pool.last_direction[s], pool.chain[s]};
-        }
-      });
-    }
-    [[nodiscard]] static constexpr std::size_t bytes_per_segment() noexcept { return sizeof(Ending) + sizeof(Vec3<T>); }
-  };
-
-  /// The link(s, s', i, j) of propagation over a Transfer.
-  struct TransferLink {
-    decltype(std::declval<const Scn&>().bsdf()) bsdf;
-    const Transfer& transfer;
-    S operator()(std::uint32_t, std::uint32_t, std::uint32_t i, std::uint32_t j) const noexcept {
-      const typename Transfer::Ending& e = transfer.ending[i];
-      return bsdf.eval(BsdfQuery<T>{e.y, e.outgoing, transfer.starting_direction[j], Transport::radiance}) * e.chain;
-    }
-  };
-
   /// Step 5: `iterations` Jacobi iterations of propagation over the clustered pool, using the
   /// factorised O(n + m) sums where the options allow and the cluster qualifies. Returns L
   /// and G w per segment.
@@ -568,35 +512,14 @@ class SegmentFiltering {
     std::vector<std::uint8_t> factorised;
     std::vector<S> diffuse;
     if (options_.factorise) transfer_factorisation(scene, pool, clustering, factorised, diffuse, stats);
-    Transfer transfer;
-    transfer.build(pool, clustering, factorised, parallel_for);
-    const TransferLink link{scene.bsdf(), transfer};
-    const PropagationInputs<S, TransferLink> inputs{clustering, pool.emitted, weighted_geometry, link, diffuse, factorised};
-    PropagationWorkspace<S> workspace;
-    propagate(inputs, iterations, radiance, workspace, parallel_for);
-  }
-
-  /// Step 3, second half: renumbers the pool and `clustering` in ending order
-  /// (Clustering::ending_order), so that segments ending in one cluster are adjacent and the
-  /// clusters' ending segments follow each other in memory. O(#segments), one gather per array.
-  template <class P = SerialFor>
-  static void order_pool(Pool& pool, Clustering<T>& clustering, const P& parallel_for = {}) {
-    const std::size_t n = pool.size();
-    std::vector<std::uint32_t> new_id, old_id(n);
-    clustering.ending_order(new_id);
-    for (std::uint32_t i = 0; i < n; ++i) old_id[new_id[i]] = i;
-    auto permute = [&](auto& values) {
-      if (values.size() != n) throw std::invalid_argument("segpath::SegmentFiltering::order_pool: the pool's arrays differ in size");
-      std::remove_cvref_t<decltype(values)> out(n);
-      parallel_for(chunk_count, [&](std::size_t c) {
-        for (std::size_t i = n * c / chunk_count, e = n * (c + 1) / chunk_count; i < e; ++i) out[i] = values[old_id[i]];
-      });
-      values.swap(out);
+    const auto& bsdf = scene.bsdf();
+    auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
+      const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});
+      return f * pool.chain[s];
     };
-    permute(pool.segments), permute(pool.first_direction), permute(pool.last_direction);
-    permute(pool.chain), permute(pool.emitted), permute(pool.geometry), permute(pool.density);
-    permute(pool.sensor_weight), permute(pool.pixel), permute(pool.flags);
-    clustering.renumber(new_id);
+    const PropagationInputs<S, decltype(link)> inputs{clustering, pool.emitted, weighted_geometry, link, diffuse, factorised};
+    std::vector<S> scratch;
+    propagate(inputs, iterations, radiance, scratch, parallel_for);
   }
 
   /// Clusters a pool's endpoints on `grid` (by canonical position where the scene has one).

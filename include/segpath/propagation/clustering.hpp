@@ -1,8 +1,6 @@
 // Endpoint clustering for propagation (SPEC 1.8 step 2): every segment endpoint gets a voxel
 // key; after a sort, each run of equal keys is one cluster, holding the segments that start
 // there (x ends) and those that end there (y ends). Each segment is in at most two clusters.
-// The segments can be renumbered in the order of their y ends, which makes propagation's
-// per-segment reads and writes sequential (propagation/propagate.hpp).
 #pragma once
 
 #include "segpath/core/segment.hpp"
@@ -12,8 +10,6 @@
 #include <algorithm>
 #include <cstdint>
 #include <span>
-#include <stdexcept>
-#include <string>
 #include <vector>
 
 namespace segpath {
@@ -35,28 +31,17 @@ struct EndpointRef {
 
 /// A cluster: refs[begin, middle) are segments starting in it, refs[middle, end) segments
 /// ending in it; `kernel` is the voxel kernel value 1/|K| (0 when the support is degenerate).
-/// Refs are also numbered by slot, their rank among the refs of the same end (starting or
-/// ending) over all clusters: data kept per slot is laid out in cluster order. `slot` is the
-/// starting slot of refs[begin].
 template <Real T>
 struct Cluster {
   std::uint32_t begin = 0, middle = 0, end = 0;
-  std::uint32_t slot = 0;
   T kernel = 0;
 
   [[nodiscard]] std::uint32_t starting_count() const noexcept { return middle - begin; }
   [[nodiscard]] std::uint32_t ending_count() const noexcept { return end - middle; }
-  /// The slot of starting ref r in [begin, middle).
-  [[nodiscard]] std::uint32_t starting_slot(std::uint32_t r) const noexcept { return slot + (r - begin); }
-  /// The slot of ending ref r in [middle, end): the refs before it less the starting ones.
-  [[nodiscard]] std::uint32_t ending_slot(std::uint32_t r) const noexcept { return r - slot - (middle - begin); }
 };
 
-/// The clusters of one iteration. Memory: one EndpointRef per endpoint, two cluster ids per
-/// segment and one segment id per slot, O(#segments). Deterministic: the sort order is a
-/// total order. Within a cluster, refs stay in the order of build() (by segment id at the
-/// time), also after renumber(): sums over a cluster's refs keep their order whatever the
-/// numbering.
+/// The clusters of one iteration. Memory: one EndpointRef per endpoint plus two cluster ids
+/// per segment, O(#segments). Deterministic: the sort order is a total order.
 template <Real T>
 class Clustering {
  public:
@@ -83,7 +68,6 @@ class Clustering {
       if (const auto ky = key_of(segments[i].y); ky.valid) refs_.push_back({ky.key, i, 1});
     }
     std::sort(refs_.begin(), refs_.end());
-    std::uint32_t slot = 0;
     for (std::uint32_t b = 0; b < refs_.size();) {
       std::uint32_t e = b, m = b;
       while (e < refs_.size() && refs_[e].key == refs_[b].key) {
@@ -91,8 +75,7 @@ class Clustering {
         ++e;
       }
       const auto id = static_cast<std::uint32_t>(clusters_.size());
-      Cluster<T> c{b, m, e, slot, T(0)};
-      slot += m - b;
+      Cluster<T> c{b, m, e, T(0)};
       Vec3<T> mean_position(0), mean_normal(0);
       for (std::uint32_t r = b; r < e; ++r) {
         const Segment<T>& s = segments[refs_[r].segment];
@@ -108,66 +91,14 @@ class Clustering {
       clusters_.push_back(c);
       b = e;
     }
-    starting_segment_.resize(starting_slot_count());
-    ending_segment_.resize(ending_slot_count());
-    for (const Cluster<T>& c : clusters_)
-      for (std::uint32_t r = c.begin; r < c.end; ++r)
-        (r < c.middle ? starting_segment_[c.starting_slot(r)] : ending_segment_[c.ending_slot(r)]) = refs_[r].segment;
   }
 
   void build(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments) {
     build(grid, segments, [](const SurfacePoint<T>& p) { return p.position; });
   }
 
-  /// The numbering that follows the y-end refs: a segment ending in a cluster gets its ending
-  /// slot as id, then those ending in none keep their relative order.
-  /// `new_id_of_old[i]` is the new id of segment i; pass it to renumber() and permute the
-  /// caller's per-segment arrays alike.
-  void ending_order(std::vector<std::uint32_t>& new_id_of_old) const {
-    new_id_of_old.assign(cluster_of_y_.size(), no_cluster);
-    std::uint32_t next = 0;
-    for (const EndpointRef& r : refs_)
-      if (r.end == 1) new_id_of_old[r.segment] = next++;
-    for (auto& id : new_id_of_old)
-      if (id == no_cluster) id = next++;
-  }
-
-  /// Renumbers the segments: segment i becomes new_id_of_old[i], a permutation of
-  /// [0, #segments). The refs keep their order (see the class comment).
-  void renumber(std::span<const std::uint32_t> new_id_of_old) {
-    const std::size_t n = cluster_of_x_.size();
-    if (new_id_of_old.size() != n)
-      throw std::invalid_argument("segpath::Clustering::renumber: " + std::to_string(new_id_of_old.size()) +
-                                  " new ids for " + std::to_string(n) + " segments");
-    std::vector<std::uint32_t> x(n, no_cluster), y(n, no_cluster);
-    std::vector<std::uint8_t> taken(n, 0);
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::uint32_t id = new_id_of_old[i];
-      if (id >= n || taken[id])
-        throw std::invalid_argument("segpath::Clustering::renumber: not a permutation (new id " + std::to_string(id) + ")");
-      taken[id] = 1;
-      x[id] = cluster_of_x_[i];
-      y[id] = cluster_of_y_[i];
-    }
-    for (EndpointRef& r : refs_) r.segment = new_id_of_old[r.segment];
-    for (auto& id : starting_segment_) id = new_id_of_old[id];
-    for (auto& id : ending_segment_) id = new_id_of_old[id];
-    cluster_of_x_.swap(x);
-    cluster_of_y_.swap(y);
-  }
-
   [[nodiscard]] std::span<const Cluster<T>> clusters() const noexcept { return clusters_; }
   [[nodiscard]] std::span<const EndpointRef> refs() const noexcept { return refs_; }
-  /// The number of starting refs: the size of data kept per starting slot.
-  [[nodiscard]] std::size_t starting_slot_count() const noexcept {
-    return clusters_.empty() ? 0 : clusters_.back().slot + clusters_.back().starting_count();
-  }
-  /// The number of ending refs: the size of data kept per ending slot.
-  [[nodiscard]] std::size_t ending_slot_count() const noexcept { return refs_.size() - starting_slot_count(); }
-  /// The segment of every starting (ending) slot: the refs' segments without the keys, in
-  /// slot order.
-  [[nodiscard]] std::span<const std::uint32_t> starting_segments() const noexcept { return starting_segment_; }
-  [[nodiscard]] std::span<const std::uint32_t> ending_segments() const noexcept { return ending_segment_; }
   /// The cluster a segment starts in (its x end), or no_cluster.
   [[nodiscard]] std::uint32_t cluster_of_x(std::uint32_t segment) const noexcept { return cluster_of_x_[segment]; }
   /// The cluster a segment ends in (its y end), or no_cluster.
@@ -175,16 +106,13 @@ class Clustering {
   [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
     if (cluster_of_x_.empty()) return 0;
     return (refs_.capacity() * sizeof(EndpointRef) + clusters_.capacity() * sizeof(Cluster<T>) +
-            (2 * cluster_of_x_.capacity() + starting_segment_.capacity() + ending_segment_.capacity()) *
-                sizeof(std::uint32_t)) /
-           cluster_of_x_.size();
+            2 * cluster_of_x_.capacity() * sizeof(std::uint32_t)) / cluster_of_x_.size();
   }
 
  private:
   std::vector<EndpointRef> refs_;
   std::vector<Cluster<T>> clusters_;
   std::vector<std::uint32_t> cluster_of_x_, cluster_of_y_;
-  std::vector<std::uint32_t> starting_segment_, ending_segment_;
 };
 
 }  // namespace segpath
