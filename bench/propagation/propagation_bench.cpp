@@ -1,6 +1,9 @@
 // Propagation (Algorithm 1) costs, on BDPF pools of the periodic slab seen through a pinhole:
-//  - one Jacobi iteration against the number of segments, 1e4 .. 1e6: the log-log slope (of
-//    CPU time) is printed at the end (target <= 1.1: linear);
+//  - one Jacobi iteration against the number of segments, 2e4 .. 2e6, as
+//    SegmentFiltering::propagate_pool runs it (link from SegmentFiltering::Transfer), inputs
+//    gathered into slot order beforehand: the log-log slope (of CPU time) is printed at the end
+//    (target <= 1.1: linear);
+//  - that gathering, once per pool (Transfer::build and prepare_propagation), same sizes;
 //  - MMIS denominators + one iteration against cluster occupancy, factorised or not;
 //  - bytes per segment (counter);
 //  - the naive recursive MMIS estimator (N39) against propagation at depth 5 on one pool
@@ -45,6 +48,14 @@ class Slab : public testing::PeriodicSlab<T> {
 
 using Filter = SegmentFiltering<Slab>;
 
+FilteringOptions<T> options(bool factorise) {
+  FilteringOptions<T> o;
+  o.max_length = 6;
+  o.light_path_ratio = 0.25;
+  o.factorise = factorise;
+  return o;
+}
+
 /// A pool with everything propagation needs, built once per size.
 struct Prepared {
   Slab scene;
@@ -52,24 +63,23 @@ struct Prepared {
   Filter::Pool pool;
   Clustering<T> clustering;
   std::vector<T> weighted_geometry;
+  Filter::Transfer transfer;
   FilteringStats stats;
 
-  Prepared(std::uint32_t size, T cell, bool factorise, std::size_t max_length = 6)
-      : scene(size), filter([&] {
-          FilteringOptions<T> o;
-          o.max_length = max_length;
-          o.light_path_ratio = 0.25;
-          o.factorise = factorise;
-          return o;
-        }()) {
+  Prepared(std::uint32_t size, T cell, bool factorise) : scene(size), filter(options(factorise)) {
     filter.build_pool(scene, 1, pool, SerialFor{});
     filter.cluster(scene, filter.grid(cell, 1), pool, clustering);
     filter.compute_densities(scene, pool, clustering, stats, SerialFor{});
     weighted_geometry.resize(pool.size());
     for (std::size_t i = 0; i < pool.size(); ++i)
       weighted_geometry[i] = pool.density[i] > 0 ? pool.geometry[i] / pool.density[i] : 0;
+    transfer.build(pool, clustering);
   }
-  auto link() const {
+
+  /// The link of SegmentFiltering::propagate_pool.
+  Filter::TransferLink link() const { return {scene.bsdf(), transfer}; }
+  /// The same by segment ids, for the naive recursion.
+  auto id_link() const {
     return [this](std::uint32_t s, std::uint32_t sp) {
       return scene.bsdf().eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp],
                                             Transport::radiance}) *
@@ -87,17 +97,40 @@ void BM_propagation_iteration(benchmark::State& state) {
   const Prepared p(side, 0.6 * 4.0 / side, false);
   const auto link = p.link();
   const PropagationInputs<T, decltype(link)> in{p.clustering, p.pool.emitted, p.weighted_geometry, link};
-  std::vector<T> radiance, scratch;
+  std::vector<T> radiance;
+  PropagationWorkspace<T> workspace;
+  prepare_propagation(in, workspace);
   for (auto _ : state) {
-    propagate(in, 1, radiance, scratch);
+    propagate_prepared(in, 1, radiance, workspace);
     benchmark::DoNotOptimize(radiance.data());
   }
   state.counters["segments"] = double(p.pool.size());
   state.counters["per_cluster"] = double(p.pool.size()) / double(p.clustering.clusters().size());
-  state.counters["bytes_per_segment"] = double(p.pool.bytes_per_segment() + p.clustering.bytes_per_segment() + 3 * sizeof(T));
+  // Pool, clustering, G w, radiance, transfer, workspace.
+  state.counters["bytes_per_segment"] =
+      double(p.pool.bytes_per_segment() + p.clustering.bytes_per_segment() + 2 * sizeof(T)) +
+      double(p.transfer.bytes() + workspace.bytes()) / double(p.pool.size());
   state.SetComplexityN(std::int64_t(p.pool.size()));
 }
 BENCHMARK(BM_propagation_iteration)->Arg(10000)->Arg(30000)->Arg(100000)->Arg(300000)->Arg(1000000)->Unit(benchmark::kMillisecond)->Complexity();
+
+void BM_pool_preparation(benchmark::State& state) {
+  // Once per pool (render iteration): the link's copies (SegmentFiltering::Transfer) and the
+  // inputs in slot order.
+  const std::uint32_t side = side_for(double(state.range(0)));
+  const Prepared p(side, 0.6 * 4.0 / side, false);
+  Filter::Transfer transfer;
+  PropagationWorkspace<T> workspace;
+  for (auto _ : state) {
+    transfer.build(p.pool, p.clustering);
+    const Filter::TransferLink link{p.scene.bsdf(), transfer};
+    prepare_propagation(PropagationInputs<T, Filter::TransferLink>{p.clustering, p.pool.emitted, p.weighted_geometry, link},
+                        workspace);
+    benchmark::DoNotOptimize(workspace.source.data());
+  }
+  state.counters["segments"] = double(p.pool.size());
+}
+BENCHMARK(BM_pool_preparation)->Arg(10000)->Arg(1000000)->Unit(benchmark::kMillisecond);
 
 void BM_occupancy(benchmark::State& state) {
   // Fixed pool, growing voxels: denominators (N39) + one iteration, factorised or not.
@@ -122,7 +155,7 @@ void BM_naive_vs_propagation(benchmark::State& state) {
   // A pool small enough for the exponential recursion: 12 x 12 pixels, large voxels.
   const bool naive = state.range(0) != 0;
   const Prepared p(12, 1.0, false);
-  const auto link = p.link();
+  const auto link = p.id_link();
   std::vector<std::uint32_t> sensor;
   for (std::uint32_t i = 0; i < p.pool.size(); ++i)
     if (p.pool.flags[i] & Filter::sensor_segment) sensor.push_back(i);

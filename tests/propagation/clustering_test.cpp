@@ -108,3 +108,41 @@ TEMPLATE_TEST_CASE("clusters are exactly the runs of equal endpoint keys", "[pro
   // An axis-aligned normal in the cell: the kernel is 1 / h^2 up to the mean-normal tilt.
   CHECK(clustering.bytes_per_segment() > 0);
 }
+
+TEMPLATE_TEST_CASE("slots number each end's refs in cluster order", "[propagation]", float, double) {
+  using T = TestType;
+  Pcg32 rng(31, 4);
+  std::vector<Segment<T>> segments;
+  for (int i = 0; i < 2000; ++i) {
+    auto point = [&] {
+      if (rng.uniform<T>() < T(0.05)) return SurfacePoint<T>::at_infinity({0, 0, 1});  // in no cluster
+      return SurfacePoint<T>::on_surface({rng.uniform<T>() * 3, rng.uniform<T>() * 3, T(0.5)}, {0, 0, 1});
+    };
+    segments.push_back({point(), point()});
+  }
+  Clustering<T> clustering;
+  clustering.build(VoxelGrid<T>(T(0.4)), segments);
+  const auto refs = clustering.refs();
+  std::size_t starting = 0, ending = 0;
+  std::vector<int> seen(segments.size(), 0);
+  for (const auto& c : clustering.clusters()) {
+    CHECK(c.slot == starting);
+    CHECK(c.ending_slot(c.middle) == ending);
+    for (std::uint32_t r = c.begin; r < c.middle; ++r) CHECK(clustering.starting_segments()[c.starting_slot(r)] == refs[r].segment);
+    for (std::uint32_t r = c.middle; r < c.end; ++r) {
+      CHECK(clustering.ending_segments()[c.ending_slot(r)] == refs[r].segment);
+      CHECK(clustering.ending_slot_of(refs[r].segment) == c.ending_slot(r));
+      ++seen[refs[r].segment];
+    }
+    starting += c.starting_count();
+    ending += c.ending_count();
+  }
+  CHECK(clustering.starting_slot_count() == starting);
+  CHECK(clustering.ending_slot_count() == ending);
+  REQUIRE(ending < segments.size());  // some segments end in no cluster
+  for (std::uint32_t s = 0; s < segments.size(); ++s) {
+    CHECK(seen[s] <= 1);
+    CHECK((clustering.ending_slot_of(s) == no_cluster) == (seen[s] == 0));
+    CHECK((clustering.ending_slot_of(s) == no_cluster) == (clustering.cluster_of_y(s) == no_cluster));
+  }
+}

@@ -87,6 +87,47 @@ TEST_CASE("factorised clusters give the same radiance as the general O(n m) sum"
   }
 }
 
+TEST_CASE("a link by slots gives the same radiance, and a prepared workspace can be reused", "[propagation]") {
+  // The slot form of the link reads per-slot copies; the same numbers, bit for bit.
+  Pcg32 rng(5, 6);
+  int nontrivial = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    const RandomPool pool = make_pool(rng);
+    Clustering<double> clustering;
+    clustering.build(VoxelGrid<double>(1.0), pool.segments);
+    std::vector<std::uint8_t> factorised(clustering.clusters().size());
+    for (auto& f : factorised) f = rng.uniform<double>() < 0.3 ? 1 : 0;
+    auto link = [&](std::uint32_t s, std::uint32_t sp) {
+      const std::uint32_t c = clustering.cluster_of_y(s);
+      return c != no_cluster && factorised[c] ? pool.diffuse[s] : pool.link_table[s * pool.n + sp];
+    };
+    const PropagationInputs<double, decltype(link)> by_id{clustering, pool.emitted, pool.weighted_geometry, link,
+                                                          pool.diffuse, factorised};
+    std::vector<double> a, scratch;
+    propagate(by_id, 4, a, scratch);
+
+    std::vector<double> ending_diffuse(clustering.ending_slot_count());
+    for (std::size_t i = 0; i < ending_diffuse.size(); ++i) ending_diffuse[i] = pool.diffuse[clustering.ending_segments()[i]];
+    auto slot_link = [&](std::uint32_t s, std::uint32_t, std::uint32_t i, std::uint32_t j) {
+      const std::uint32_t c = clustering.cluster_of_y(s);
+      return factorised[c] ? ending_diffuse[i] : pool.link_table[s * pool.n + clustering.starting_segments()[j]];
+    };
+    const PropagationInputs<double, decltype(slot_link)> by_slot{clustering, pool.emitted, pool.weighted_geometry, slot_link,
+                                                                 pool.diffuse, factorised};
+    std::vector<double> b, c;
+    PropagationWorkspace<double> workspace;
+    propagate(by_slot, 4, b, workspace);
+    propagate_prepared(by_slot, 2, c, workspace);  // fewer iterations on the same preparation
+    propagate_prepared(by_slot, 4, c, workspace);
+    for (std::uint32_t s = 0; s < pool.n; ++s) {
+      CHECK(b[s] == a[s]);
+      CHECK(c[s] == a[s]);
+      if (a[s] != pool.emitted[s]) ++nontrivial;
+    }
+  }
+  CHECK(nontrivial > 300);
+}
+
 TEST_CASE("propagation rejects bad input", "[propagation]") {
   Clustering<double> clustering;
   std::vector<Segment<double>> none;
@@ -100,4 +141,21 @@ TEST_CASE("propagation rejects bad input", "[propagation]") {
   CHECK_THROWS_AS(propagate(ok, 0, r, s), std::invalid_argument);
   propagate(ok, 3, r, s);  // a segment in no cluster keeps its emitted radiance
   CHECK(r[0] == 1.0);
+
+  // A workspace prepared for other inputs (or none) is rejected.
+  Pcg32 rng(3, 1);
+  RandomPool pool;
+  while (pool.n == 0 || clustering.starting_slot_count() == 0) {
+    pool = make_pool(rng);
+    clustering.build(VoxelGrid<double>(1.0), pool.segments);
+  }
+  std::vector<std::uint8_t> factorised(clustering.clusters().size(), 1);
+  const PropagationInputs<double, decltype(link)> plain{clustering, pool.emitted, pool.weighted_geometry, link};
+  const PropagationInputs<double, decltype(link)> fast{clustering, pool.emitted, pool.weighted_geometry, link, pool.diffuse,
+                                                       factorised};
+  PropagationWorkspace<double> workspace;
+  CHECK_THROWS_AS(propagate_prepared(plain, 1, r, workspace), std::invalid_argument);
+  prepare_propagation(fast, workspace);
+  CHECK_THROWS_AS(propagate_prepared(plain, 1, r, workspace), std::invalid_argument);
+  CHECK_NOTHROW(propagate_prepared(fast, 1, r, workspace));
 }

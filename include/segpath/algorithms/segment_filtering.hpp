@@ -64,6 +64,8 @@
 #include <span>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 namespace segpath {
@@ -207,7 +209,7 @@ class SegmentFiltering {
     std::vector<S> radiance;
     std::vector<T> weighted_geometry;
     const int iterations = int(options_.max_length) - 1;
-    std::size_t support_bytes = 0;
+    std::size_t support_bytes = 0, propagation_bytes = 0;
     if (options_.support == FilteringSupport::voxel) {
       Clustering<T> clustering;
       cluster(scene, grid(cell, iteration), pool, clustering);
@@ -215,6 +217,9 @@ class SegmentFiltering {
       compute_densities(scene, pool, clustering, stats, parallel_for);
       propagate_pool(scene, pool, clustering, iterations, radiance, weighted_geometry, stats, parallel_for);
       support_bytes = clustering.bytes_per_segment();
+      // Propagation: diffuse when factorising, the transfer and the workspace.
+      propagation_bytes = (options_.factorise ? sizeof(S) : 0) + Transfer::bytes_per_segment() +
+                          PropagationWorkspace<S>::bytes_per_segment;
     } else {
       DiskJunctions<T> junctions;
       join(scene, disk_radius(cell), pool, junctions, parallel_for);
@@ -222,6 +227,7 @@ class SegmentFiltering {
       compute_densities(scene, pool, junctions, stats, parallel_for);
       propagate_pool(scene, pool, junctions, iterations, radiance, weighted_geometry, parallel_for);
       support_bytes = junctions.bytes_per_segment();
+      propagation_bytes = sizeof(S);  // the second radiance buffer
     }
     for (std::size_t i = 0; i < pool.size(); ++i) {
       if (!(pool.flags[i] & sensor_segment)) continue;
@@ -229,8 +235,7 @@ class SegmentFiltering {
       if (is_finite(value)) image.add(pool.pixel[i], value);
       else drops.add(DropReason::non_finite);
     }
-    stats.bytes_per_segment = pool.bytes_per_segment() + support_bytes + sizeof(T) +
-                              (options_.factorise && options_.support == FilteringSupport::voxel ? 3 : 2) * sizeof(S);
+    stats.bytes_per_segment = pool.bytes_per_segment() + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes;
     return stats;
   }
 
@@ -499,6 +504,85 @@ class SegmentFiltering {
   }
 
  public:
+  /// f_r(s, s') chain(s) (N20) as propagation evaluates it, from copies in slot order
+  /// (propagation/clustering.hpp), gathered once per pool: per ending slot what the BSDF needs
+  /// of the ending segment, per starting slot the starting direction; only for the clusters
+  /// that are not factorised (propagation never evaluates the link in the others), which then
+  /// map slots to records. Memory: at most sizeof(Ending) + sizeof(Vec3) + 8 bytes per segment.
+  struct Transfer {
+    struct Ending {
+      SurfacePoint<T> y;
+      Vec3<T> outgoing;  ///< -last_direction: from y back along the segment
+      S chain;
+    };
+    std::vector<Ending> ending;
+    std::vector<Vec3<T>> starting_direction;
+    std::vector<std::uint32_t> ending_record, starting_record;  ///< slot -> record; empty: the identity
+
+    template <class P = SerialFor>
+    void build(const Pool& pool, const Clustering<T>& clustering, std::span<const std::uint8_t> factorised = {},
+               const P& parallel_for = {}) {
+      const auto clusters = clustering.clusters();
+      const bool compact = !factorised.empty();
+      // Records: the slots of the clusters kept, in slot order.
+      std::vector<std::uint32_t> first_ending, first_starting;
+      std::size_t endings = clustering.ending_slot_count(), startings = clustering.starting_slot_count();
+      if (compact) {
+        first_ending.resize(clusters.size());
+        first_starting.resize(clusters.size());
+        endings = startings = 0;
+        for (std::size_t c = 0; c < clusters.size(); ++c) {
+          first_ending[c] = std::uint32_t(endings);
+          first_starting[c] = std::uint32_t(startings);
+          if (factorised[c]) continue;
+          endings += clusters[c].ending_count();
+          startings += clusters[c].starting_count();
+        }
+      }
+      ending.resize(endings);
+      starting_direction.resize(startings);
+      ending_record.assign(compact ? clustering.ending_slot_count() : 0, 0);
+      starting_record.assign(compact ? clustering.starting_slot_count() : 0, 0);
+      const auto ending_segment = clustering.ending_segments();
+      const auto starting_segment = clustering.starting_segments();
+      parallel_for(clusters.size(), [&](std::size_t c) {
+        if (compact && factorised[c]) return;
+        const Cluster<T>& cl = clusters[c];
+        for (std::uint32_t q = 0; q < cl.starting_count(); ++q) {
+          const std::uint32_t j = cl.slot + q, record = compact ? first_starting[c] + q : j;
+          if (compact) starting_record[j] = record;
+          starting_direction[record] = pool.first_direction[starting_segment[j]];
+        }
+        const std::uint32_t first = cl.ending_slot(cl.middle);
+        for (std::uint32_t q = 0; q < cl.ending_count(); ++q) {
+          const std::uint32_t i = first + q, record = compact ? first_ending[c] + q : i;
+          if (compact) ending_record[i] = record;
+          const std::uint32_t s = ending_segment[i];
+          ending[record] = Ending{pool.segments[s].y, -pool.last_direction[s], pool.chain[s]};
+        }
+      });
+    }
+    /// At most.
+    [[nodiscard]] static constexpr std::size_t bytes_per_segment() noexcept {
+      return sizeof(Ending) + sizeof(Vec3<T>) + 2 * sizeof(std::uint32_t);
+    }
+    [[nodiscard]] std::size_t bytes() const noexcept {
+      return ending.capacity() * sizeof(Ending) + starting_direction.capacity() * sizeof(Vec3<T>) +
+             (ending_record.capacity() + starting_record.capacity()) * sizeof(std::uint32_t);
+    }
+  };
+
+  /// The link(s, s', i, j) of propagation over a Transfer.
+  struct TransferLink {
+    decltype(std::declval<const Scn&>().bsdf()) bsdf;
+    const Transfer& transfer;
+    S operator()(std::uint32_t, std::uint32_t, std::uint32_t i, std::uint32_t j) const noexcept {
+      const auto& e = transfer.ending[transfer.ending_record.empty() ? i : transfer.ending_record[i]];
+      const auto& w = transfer.starting_direction[transfer.starting_record.empty() ? j : transfer.starting_record[j]];
+      return bsdf.eval(BsdfQuery<T>{e.y, e.outgoing, w, Transport::radiance}) * e.chain;
+    }
+  };
+
   /// Step 5: `iterations` Jacobi iterations of propagation over the clustered pool, using the
   /// factorised O(n + m) sums where the options allow and the cluster qualifies. Returns L
   /// and G w per segment.
@@ -506,50 +590,53 @@ class SegmentFiltering {
   void propagate_pool(const Scn& scene, const Pool& pool, const Clustering<T>& clustering, int iterations,
                       std::vector<S>& radiance, std::vector<T>& weighted_geometry, FilteringStats& stats,
                       const P& parallel_for = {}) const {
-    weighted_geometry.resize(pool.size());
-    for (std::size_t i = 0; i < pool.size(); ++i)
-      weighted_geometry[i] = pool.density[i] > T(0) ? pool.geometry[i] / pool.density[i] : T(0);
+    weighted_geometry_of(pool, weighted_geometry);
     std::vector<std::uint8_t> factorised;
     std::vector<S> diffuse;
     if (options_.factorise) transfer_factorisation(scene, pool, clustering, factorised, diffuse, stats);
-    const auto& bsdf = scene.bsdf();
-    auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
-      const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});
-      return f * pool.chain[s];
-    };
-    const PropagationInputs<S, decltype(link)> inputs{clustering, pool.emitted, weighted_geometry, link, diffuse, factorised};
-    std::vector<S> scratch;
-    propagate(inputs, iterations, radiance, scratch, parallel_for);
+    Transfer transfer;
+    transfer.build(pool, clustering, factorised, parallel_for);
+    const TransferLink link{scene.bsdf(), transfer};
+    const PropagationInputs<S, TransferLink> inputs{clustering, pool.emitted, weighted_geometry, link, diffuse, factorised};
+    PropagationWorkspace<S> workspace;
+    propagate(inputs, iterations, radiance, workspace, parallel_for);
   }
 
   /// Clusters a pool's endpoints on `grid` (by canonical position where the scene has one).
   void cluster(const Scn& scene, const VoxelGrid<T>& grid, const Pool& pool, Clustering<T>& clustering) const {
-    if constexpr (HasCanonicalPosition<Scn>) {
-      clustering.build(grid, pool.segments, [&](const SurfacePoint<T>& p) { return scene.canonical_position(p); });
-    } else {
-      clustering.build(grid, pool.segments);
-    }
+    clustering.build(grid, pool.segments, canonical_map(scene));
   }
 
   /// The disk support's junctions of a pool (by canonical position where the scene has one).
   template <class P = SerialFor>
   void join(const Scn& scene, T radius, const Pool& pool, DiskJunctions<T>& junctions, const P& parallel_for = {}) const {
-    if constexpr (HasCanonicalPosition<Scn>) {
-      junctions.build(radius, std::span<const Segment<T>>(pool.segments),
-                      [&](const SurfacePoint<T>& p) { return scene.canonical_position(p); }, T(0.5), parallel_for);
-    } else {
-      junctions.build(radius, std::span<const Segment<T>>(pool.segments), [](const SurfacePoint<T>& p) { return p.position; },
-                      T(0.5), parallel_for);
-    }
+    junctions.build(radius, std::span<const Segment<T>>(pool.segments), canonical_map(scene), T(0.5), parallel_for);
+  }
+
+  /// Where an end is keyed or measured: the scene's canonical position, or the position itself.
+  [[nodiscard]] static auto canonical_map(const Scn& scene) noexcept {
+    return [&scene](const SurfacePoint<T>& p) -> Vec3<T> {
+      if constexpr (HasCanonicalPosition<Scn>) {
+        return scene.canonical_position(p);
+      } else {
+        (void)scene;
+        return p.position;
+      }
+    };
+  }
+
+  /// G(s) w(s) = G(s) / D(s) per segment (0 where no technique could draw it).
+  static void weighted_geometry_of(const Pool& pool, std::vector<T>& weighted_geometry) {
+    weighted_geometry.resize(pool.size());
+    for (std::size_t i = 0; i < pool.size(); ++i)
+      weighted_geometry[i] = pool.density[i] > T(0) ? pool.geometry[i] / pool.density[i] : T(0);
   }
 
   /// Step 5 over the disk support (no factorisation: every end has its own disk).
   template <class P = SerialFor>
   void propagate_pool(const Scn& scene, const Pool& pool, const DiskJunctions<T>& junctions, int iterations,
                       std::vector<S>& radiance, std::vector<T>& weighted_geometry, const P& parallel_for = {}) const {
-    weighted_geometry.resize(pool.size());
-    for (std::size_t i = 0; i < pool.size(); ++i)
-      weighted_geometry[i] = pool.density[i] > T(0) ? pool.geometry[i] / pool.density[i] : T(0);
+    weighted_geometry_of(pool, weighted_geometry);
     const auto& bsdf = scene.bsdf();
     auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
       const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});

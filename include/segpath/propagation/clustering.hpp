@@ -1,6 +1,8 @@
 // Endpoint clustering for propagation (SPEC 1.8 step 2): every segment endpoint gets a voxel
 // key; after a sort, each run of equal keys is one cluster, holding the segments that start
 // there (x ends) and those that end there (y ends). Each segment is in at most two clusters.
+// Refs are also numbered by slot (their rank among the refs of the same end), so that
+// propagation can keep what it needs in cluster order and read it in order.
 #pragma once
 
 #include "segpath/core/segment.hpp"
@@ -31,17 +33,25 @@ struct EndpointRef {
 
 /// A cluster: refs[begin, middle) are segments starting in it, refs[middle, end) segments
 /// ending in it; `kernel` is the voxel kernel value 1/|K| (0 when the support is degenerate).
+/// Refs are also numbered by slot, their rank among the refs of the same end (starting or
+/// ending) over all clusters: data kept per slot is laid out in cluster order. `slot` is the
+/// starting slot of refs[begin].
 template <Real T>
 struct Cluster {
   std::uint32_t begin = 0, middle = 0, end = 0;
+  std::uint32_t slot = 0;
   T kernel = 0;
 
   [[nodiscard]] std::uint32_t starting_count() const noexcept { return middle - begin; }
   [[nodiscard]] std::uint32_t ending_count() const noexcept { return end - middle; }
+  /// The slot of starting ref r in [begin, middle).
+  [[nodiscard]] std::uint32_t starting_slot(std::uint32_t r) const noexcept { return slot + (r - begin); }
+  /// The slot of ending ref r in [middle, end): the refs before it less the starting ones.
+  [[nodiscard]] std::uint32_t ending_slot(std::uint32_t r) const noexcept { return r - slot - (middle - begin); }
 };
 
-/// The clusters of one iteration. Memory: one EndpointRef per endpoint plus two cluster ids
-/// per segment, O(#segments). Deterministic: the sort order is a total order.
+/// The clusters of one iteration. Memory: one EndpointRef per endpoint, three ids per segment
+/// and one per slot, O(#segments). Deterministic: the sort order is a total order.
 template <Real T>
 class Clustering {
  public:
@@ -57,6 +67,7 @@ class Clustering {
     clusters_.clear();
     cluster_of_x_.assign(segments.size(), no_cluster);
     cluster_of_y_.assign(segments.size(), no_cluster);
+    ending_slot_of_.assign(segments.size(), no_cluster);
     refs_.reserve(2 * segments.size());
     auto key_of = [&](const SurfacePoint<T>& p) {
       SurfacePoint<T> q = p;
@@ -68,6 +79,7 @@ class Clustering {
       if (const auto ky = key_of(segments[i].y); ky.valid) refs_.push_back({ky.key, i, 1});
     }
     std::sort(refs_.begin(), refs_.end());
+    std::uint32_t slot = 0;
     for (std::uint32_t b = 0; b < refs_.size();) {
       std::uint32_t e = b, m = b;
       while (e < refs_.size() && refs_[e].key == refs_[b].key) {
@@ -75,7 +87,8 @@ class Clustering {
         ++e;
       }
       const auto id = static_cast<std::uint32_t>(clusters_.size());
-      Cluster<T> c{b, m, e, T(0)};
+      Cluster<T> c{b, m, e, slot, T(0)};
+      slot += m - b;
       Vec3<T> mean_position(0), mean_normal(0);
       for (std::uint32_t r = b; r < e; ++r) {
         const Segment<T>& s = segments[refs_[r].segment];
@@ -91,6 +104,15 @@ class Clustering {
       clusters_.push_back(c);
       b = e;
     }
+    starting_segment_.resize(starting_slot_count());
+    ending_segment_.resize(ending_slot_count());
+    for (const Cluster<T>& c : clusters_) {
+      for (std::uint32_t r = c.begin; r < c.middle; ++r) starting_segment_[c.starting_slot(r)] = refs_[r].segment;
+      for (std::uint32_t r = c.middle; r < c.end; ++r) {
+        ending_segment_[c.ending_slot(r)] = refs_[r].segment;
+        ending_slot_of_[refs_[r].segment] = c.ending_slot(r);
+      }
+    }
   }
 
   void build(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments) {
@@ -99,20 +121,35 @@ class Clustering {
 
   [[nodiscard]] std::span<const Cluster<T>> clusters() const noexcept { return clusters_; }
   [[nodiscard]] std::span<const EndpointRef> refs() const noexcept { return refs_; }
+  /// The number of starting refs: the size of data kept per starting slot.
+  [[nodiscard]] std::size_t starting_slot_count() const noexcept {
+    return clusters_.empty() ? 0 : clusters_.back().slot + clusters_.back().starting_count();
+  }
+  /// The number of ending refs: the size of data kept per ending slot.
+  [[nodiscard]] std::size_t ending_slot_count() const noexcept { return refs_.size() - starting_slot_count(); }
+  /// The segment of every starting (ending) slot: the refs' segments without the keys, in
+  /// slot order.
+  [[nodiscard]] std::span<const std::uint32_t> starting_segments() const noexcept { return starting_segment_; }
+  [[nodiscard]] std::span<const std::uint32_t> ending_segments() const noexcept { return ending_segment_; }
   /// The cluster a segment starts in (its x end), or no_cluster.
   [[nodiscard]] std::uint32_t cluster_of_x(std::uint32_t segment) const noexcept { return cluster_of_x_[segment]; }
   /// The cluster a segment ends in (its y end), or no_cluster.
   [[nodiscard]] std::uint32_t cluster_of_y(std::uint32_t segment) const noexcept { return cluster_of_y_[segment]; }
+  /// The ending slot of a segment (of its y end), or no_cluster.
+  [[nodiscard]] std::uint32_t ending_slot_of(std::uint32_t segment) const noexcept { return ending_slot_of_[segment]; }
   [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
     if (cluster_of_x_.empty()) return 0;
     return (refs_.capacity() * sizeof(EndpointRef) + clusters_.capacity() * sizeof(Cluster<T>) +
-            2 * cluster_of_x_.capacity() * sizeof(std::uint32_t)) / cluster_of_x_.size();
+            (3 * cluster_of_x_.capacity() + starting_segment_.capacity() + ending_segment_.capacity()) *
+                sizeof(std::uint32_t)) /
+           cluster_of_x_.size();
   }
 
  private:
   std::vector<EndpointRef> refs_;
   std::vector<Cluster<T>> clusters_;
-  std::vector<std::uint32_t> cluster_of_x_, cluster_of_y_;
+  std::vector<std::uint32_t> cluster_of_x_, cluster_of_y_, ending_slot_of_;
+  std::vector<std::uint32_t> starting_segment_, ending_segment_;
 };
 
 }  // namespace segpath
