@@ -56,6 +56,7 @@ struct MethodOptions {
   std::optional<double> beta;    ///< light paths per camera path (> 0); unset: 1 (VCM family), 0.25 (filtering)
   segpath::FilteringSupport support = segpath::FilteringSupport::voxel;  ///< filtering: junction support
   bool bridges = false;          ///< bdpf: add bridge segments
+  bool next_event = false;       ///< mvf, bdpf: add next-event segments
 };
 
 /// The emitter of a RenderScene by reference: PathTracer copies scene.emitter() once per
@@ -341,7 +342,8 @@ class VcmMethod {
 /// MVF, PhF and BDPF (segpath::SegmentFiltering): approximate sequential segments pooled per
 /// iteration, voxel clusters (or disks of the same area, --support disk) of --radius (default 4x the average pixel footprint) shrinking by
 /// --alpha (default 0.67), beta x #pixels light paths (default 0.25), MMIS weights and
-/// propagation (the paper's Algorithm 1); BDPF optionally with bridge segments (--bridges).
+/// propagation (the paper's Algorithm 1); BDPF optionally with bridge segments (--bridges), MVF
+/// and BDPF with next-event segments (--next-event; PhF has no camera technique points).
 template <segpath::FilteringMode Mode>
 class FilteringMethod {
  public:
@@ -378,6 +380,7 @@ class FilteringMethod {
     f.seed = o.seed;
     f.support = o.support;
     f.bridges = o.bridges;
+    f.next_event = o.next_event && Mode != segpath::FilteringMode::phf;
     return f;
   }
   segpath::SegmentFiltering<ThreadCountingScene> filter_;

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "support/catch.hpp"
+#include "support/filtering_denominators.hpp"
 
 using namespace segpath;
 
@@ -73,6 +74,11 @@ TEST_CASE("segment filtering: bad options are rejected", "[algorithms]") {
   o = {};
   o.alpha = 1;
   CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
+  o = {};
+  o.next_event = true;  // from camera technique points, which PhF has none of
+  CHECK_NOTHROW(SegmentFiltering<Scn>(o));
+  o.mode = FilteringMode::phf;
+  CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
 }
 
 TEST_CASE("segment filtering: factorised clusters give the same image", "[algorithms]") {
@@ -123,13 +129,17 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
   // Paths of up to 6 segments seen from plane A: L_A truncated after 5 reflections.
   double expected = 0;
   for (unsigned k = 0; k < max_length; ++k) expected += scene.bounce_radiance(testing::SlabSide::a, k);
-  const double alpha = testing::sidak_alpha(0.01, 3);
-  for (auto mode : {FilteringMode::mvf, FilteringMode::phf, FilteringMode::bdpf}) {
+  // Next-event segments add a camera-side technique to MVF and BDPF.
+  const std::pair<FilteringMode, bool> variants[] = {{FilteringMode::mvf, false}, {FilteringMode::phf, false}, {FilteringMode::bdpf, false},
+                                                     {FilteringMode::mvf, true}, {FilteringMode::bdpf, true}};
+  const double alpha = testing::sidak_alpha(0.01, std::size(variants));
+  for (const auto& [mode, next_event] : variants) {
     FilteringOptions<double> o;
     o.mode = mode;
     o.max_length = max_length;
     o.light_path_ratio = 1.0;
     o.jitter = false;
+    o.next_event = next_event;
     o.seed = 11;
     const SegmentFiltering<PhotographedSlab<double>> method(o);
     // Each iteration's image mean is one sample (pixels of one iteration are correlated).
@@ -142,7 +152,7 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
       for (auto v : image.pixels()) mean += v;
       stats.add(mean / 256.0);
     }
-    INFO(to_string(mode) << ": " << stats.mean() << " +- " << stats.standard_error() << " vs " << expected);
+    INFO(to_string(mode) << (next_event ? " + next-event" : "") << ": " << stats.mean() << " +- " << stats.standard_error() << " vs " << expected);
     CHECK(drops.total() == 0);
     if (stats.variance() < 1e-20) {
       CHECK(stats.mean() == Approx(expected).epsilon(1e-9));  // MVF in the furnace: every sample exact
@@ -174,75 +184,6 @@ TEST_CASE("the BDPF furnace test has the power to see a 1 % error", "[algorithms
   CHECK(testing::student_t_test(good, expected * 1.01).rejects(0.001));  // 1 % off is caught
 }
 
-namespace {
-
-/// Recomputes D(s) (N39) for every pooled segment by enumerating ALL pooled segments as
-/// candidate technique samples, with `kernel(end, start)` the kernel value joining the end y_t
-/// of one segment to the start x_s of another (0 outside the support), and compares.
-/// Returns {segments checked, segments with more than one technique sample}.
-template <class Filter, class Scn, class Kernel>
-std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, const Scn& scene, const typename Filter::Pool& pool,
-                                                       const Kernel& kernel) {
-  const auto bsdf = scene.bsdf();
-  const double n_light = double(filter.light_path_count(scene));
-  std::vector<std::uint32_t> targets;
-  for (std::uint32_t u = 0; u < pool.size(); ++u)
-    if (!(pool.flags[u] & (Filter::camera_born | Filter::bridge_segment)) && pool.segments[u].x.kind == PointKind::surface)
-      targets.push_back(u);
-  CHECK(pool.bridge_targets == (filter.options().bridges ? targets.size() : 0));
-  std::size_t checked = 0, with_techniques = 0;
-  for (std::uint32_t s = 0; s < pool.size(); ++s) {
-    const auto& seg = pool.segments[s];
-    const std::uint8_t f = pool.flags[s];
-    const bool plain = !(f & (Filter::chain_segment | Filter::delta_light)) && seg.x.kind == PointKind::surface;
-    double d = 0, bridge_camera = 0;
-    int techniques = 0;
-    for (std::uint32_t t = 0; t < pool.size(); ++t) {
-      // A camera technique sample: a continued segment whose end's support holds x_s.
-      if (pool.flags[t] & Filter::camera_technique) {
-        const double k = kernel(t, s);
-        bridge_camera += k;
-        if (k > 0 && !(f & Filter::delta_light)) {
-          const double measure = (f & Filter::chain_segment) ? 1.0 : solid_angle_to_area(1.0, seg.x, seg.y);
-          d += k * measure *
-               bsdf.pdf(BsdfQuery<double>{pool.segments[t].y, -pool.last_direction[t], pool.first_direction[s], Transport::radiance});
-          ++techniques;
-        }
-      }
-      // A light technique sample: a continued light segment whose start lies in y_s's support.
-      if ((pool.flags[t] & Filter::light_technique) && plain) {
-        const double k = kernel(s, t);
-        if (k > 0) {
-          d += k * bsdf.pdf(BsdfQuery<double>{pool.segments[t].x, -pool.last_direction[s], pool.first_direction[t],
-                                              Transport::importance}) *
-               solid_angle_to_area(1.0, seg.y, seg.x);
-          ++techniques;
-        }
-      }
-    }
-    // A bridge: any camera technique point to any of the M targets, uniform kernel draws at both ends.
-    if (filter.options().bridges && plain && seg.y.kind == PointKind::surface && !targets.empty()) {
-      double bridge_light = 0;
-      for (const std::uint32_t u : targets) bridge_light += kernel(s, u);
-      d += bridge_camera * bridge_light / double(targets.size());
-      techniques += bridge_camera * bridge_light > 0;
-    }
-    if (f & Filter::sensor_segment) {
-      const auto p = scene.sensor().pdf(SensorQuery<double>{seg.x, pool.first_direction[s]});
-      d += p.position * p.direction * solid_angle_to_area(1.0, seg.x, seg.y);
-    }
-    if (seg.x.kind == PointKind::surface && !(f & Filter::chain_segment)) {
-      const auto e = scene.emitter().pdf_emission(EmissionPdfQuery<double>{seg.y, -pool.last_direction[s]});
-      d += n_light * e.position * e.direction * solid_angle_to_area(1.0, seg.y, seg.x);
-    }
-    CHECK(pool.density[s] == Approx(d).epsilon(1e-12).margin(1e-300));
-    ++checked;
-    if (techniques > 1) ++with_techniques;
-  }
-  return {checked, with_techniques};
-}
-
-}  // namespace
 
 namespace {
 
@@ -279,7 +220,7 @@ Vec3<double> canonical(const Scn& scene, const SurfacePoint<double>& p) {
 }
 
 template <class Scn>
-void check_voxel_denominators(const Scn& scene, bool bridges, double cell) {
+void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, double cell) {
   using Filter = SegmentFiltering<Scn>;
   for (const bool factorise : {false, true}) {
     FilteringOptions<double> o;
@@ -287,6 +228,7 @@ void check_voxel_denominators(const Scn& scene, bool bridges, double cell) {
     o.light_path_ratio = 0.75;
     o.factorise = factorise;
     o.bridges = bridges;
+    o.next_event = next_event;
     const Filter filter(o);
     typename Filter::Pool pool;
     filter.build_pool(scene, 2, pool, SerialFor{});
@@ -298,8 +240,8 @@ void check_voxel_denominators(const Scn& scene, bool bridges, double cell) {
       const std::uint32_t c = clustering.cluster_of_y(end);
       return c != no_cluster && c == clustering.cluster_of_x(start) ? clustering.clusters()[c].kernel : 0.0;
     };
-    INFO("bridges " << bridges << ", factorise " << factorise);
-    const auto [checked, with_techniques] = check_denominators(filter, scene, pool, kernel);
+    INFO("bridges " << bridges << ", next-event " << next_event << ", factorise " << factorise);
+    const auto [checked, with_techniques] = testing::check_denominators(filter, scene, pool, kernel);
     CHECK(checked > 500);
     CHECK(with_techniques > checked / 4);  // the pools exercise clusters with several technique samples
     if (bridges) {
@@ -310,13 +252,14 @@ void check_voxel_denominators(const Scn& scene, bool bridges, double cell) {
 }
 
 template <class Scn>
-void check_disk_denominators(const Scn& scene, bool bridges, double r) {
+void check_disk_denominators(const Scn& scene, bool bridges, bool next_event, double r) {
   using Filter = SegmentFiltering<Scn>;
   FilteringOptions<double> o;
   o.max_length = 5;
   o.light_path_ratio = 0.75;
   o.support = FilteringSupport::disk;
   o.bridges = bridges;
+  o.next_event = next_event;
   const Filter filter(o);
   typename Filter::Pool pool;
   filter.build_pool(scene, 2, pool, SerialFor{});
@@ -332,8 +275,8 @@ void check_disk_denominators(const Scn& scene, bool bridges, double r) {
     const Vec3<double> d = canonical(scene, x) - canonical(scene, y);
     return glm::dot(d, d) < r * r && glm::dot(x.normal, y.normal) >= 0.5 ? 1 / (pi<double> * r * r) : 0.0;
   };
-  INFO("bridges " << bridges);
-  const auto [checked, with_techniques] = check_denominators(filter, scene, pool, kernel);
+  INFO("bridges " << bridges << ", next-event " << next_event);
+  const auto [checked, with_techniques] = testing::check_denominators(filter, scene, pool, kernel);
   CHECK(checked > 500);
   CHECK(with_techniques > checked / 4);
 }
@@ -343,24 +286,27 @@ void check_disk_denominators(const Scn& scene, bool bridges, double r) {
 TEST_CASE("every MMIS denominator includes every technique sample of its cluster", "[algorithms]") {
   // Voxel support: the kernel joining two ends is read from cluster ids only — not from the
   // clusters' member lists the algorithm iterates over.
-  check_voxel_denominators(PhotographedSlab<double>(furnace, 8), false, 0.4);
-  check_voxel_denominators(PhotographedSphere(8), false, 0.4);
-  check_voxel_denominators(PhotographedSphere(8), true, 0.4);
+  check_voxel_denominators(PhotographedSlab<double>(furnace, 8), false, false, 0.4);
+  check_voxel_denominators(PhotographedSlab<double>(furnace, 8), false, true, 0.4);
+  check_voxel_denominators(PhotographedSphere(8), false, false, 0.4);
+  check_voxel_denominators(PhotographedSphere(8), true, true, 0.4);
 }
 
 TEST_CASE("every MMIS denominator includes every technique sample of its disk", "[algorithms]") {
-  check_disk_denominators(PhotographedSlab<double>(furnace, 8), false, 0.25);
-  check_disk_denominators(PhotographedSphere(8), false, 0.25);
-  check_disk_denominators(PhotographedSphere(8), true, 0.25);
+  check_disk_denominators(PhotographedSlab<double>(furnace, 8), false, false, 0.25);
+  check_disk_denominators(PhotographedSlab<double>(furnace, 8), false, true, 0.25);
+  check_disk_denominators(PhotographedSphere(8), false, false, 0.25);
+  check_disk_denominators(PhotographedSphere(8), true, true, 0.25);
 }
 
-TEST_CASE("segment filtering: disk support and bridges do not depend on the thread count", "[algorithms]") {
+TEST_CASE("segment filtering: disk support, bridges and next-event segments do not depend on the thread count", "[algorithms]") {
   const PhotographedSphere scene(8);
   for (const auto support : {FilteringSupport::voxel, FilteringSupport::disk}) {
     FilteringOptions<double> o;
     o.max_length = 5;
     o.support = support;
     o.bridges = true;
+    o.next_event = true;
     const SegmentFiltering<PhotographedSphere> bdpf(o);
     Framebuffer<double> a(8, 8), b(8, 8);
     DropCounters drops;
@@ -368,6 +314,7 @@ TEST_CASE("segment filtering: disk support and bridges do not depend on the thre
     bdpf.render_iteration(scene, 3, 0.3, b, drops, TwoThreads{});
     INFO(to_string(support));
     CHECK(stats.bridge_segments > 0);
+    CHECK(stats.next_event_segments > 0);
     CHECK((support == FilteringSupport::disk) == (stats.junctions > 0));
     for (std::uint32_t p = 0; p < 64; ++p) CHECK(a[p] == b[p]);
   }

@@ -2,6 +2,7 @@
 // independence, and per-tile agreement with PT on the path families both sample (unbiased
 // methods exactly, kernel and filtering methods within a measured bias bound).
 #include "support/catch.hpp"
+#include "support/filtering_denominators.hpp"
 
 #include "cornell.hpp"
 #include "integrators.hpp"
@@ -316,6 +317,41 @@ void check_filtering_bias(const std::string& name, std::uint64_t iterations) {
 }
 
 }  // namespace
+
+// Box 1's mirror sphere makes chains on both sides: camera chains through the mirror, and
+// light-born chains light -> mirror -> diffuse (the caustic on the ceiling), whose densities
+// are measured by etendue (area x solid angle at x). Every denominator, recomputed by
+// enumerating the pool, with next-event segments on.
+TEST_CASE("BDPF denominators on box 1 count chains from both sides and next-event segments", "[renderer]") {
+  using Filter = segpath::SegmentFiltering<renderer::ThreadCountingScene>;
+  const RenderScene cornell = renderer::make_cornell(1, 16, 16);
+  const renderer::ThreadCountingScene scene(cornell);
+  segpath::FilteringOptions<float> o;
+  o.light_path_ratio = 1;
+  o.next_event = true;
+  const Filter filter(o);
+  Filter::Pool pool;
+  filter.build_pool(scene, 1, pool, segpath::SerialFor{});
+  segpath::Clustering<float> clustering;
+  filter.cluster(scene, filter.grid(0.3f, 1), pool, clustering);
+  segpath::FilteringStats stats;
+  filter.compute_densities(scene, pool, clustering, stats, segpath::SerialFor{});
+  std::size_t camera_chains = 0, light_chains = 0;
+  for (std::size_t i = 0; i < pool.size(); ++i) {
+    if (!(pool.flags[i] & Filter::chain_segment)) continue;
+    ++((pool.flags[i] & Filter::camera_born) ? camera_chains : light_chains);
+  }
+  CHECK(camera_chains > 20);
+  CHECK(light_chains > 20);
+  CHECK(pool.next_event_segments > 200);
+  auto kernel = [&](std::uint32_t end, std::uint32_t start) {
+    const std::uint32_t c = clustering.cluster_of_y(end);
+    return c != segpath::no_cluster && c == clustering.cluster_of_x(start) ? double(clustering.clusters()[c].kernel) : 0.0;
+  };
+  const auto [checked, with_techniques] = segpath::testing::check_denominators(filter, scene, pool, kernel);
+  CHECK(checked == pool.size());
+  CHECK(with_techniques > checked / 10);
+}
 
 TEST_CASE("MVF stays within its bias bound of PT on box 1 and converges as the voxel shrinks", "[renderer][stat]") {
   check_filtering_bias("mvf", 256);

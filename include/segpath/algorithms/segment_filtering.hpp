@@ -8,24 +8,28 @@
 //  1. one camera path per pixel (MVF, BDPF; PhF: only its sensor segment) and, for PhF and
 //     BDPF, N_L = beta x #pixels light paths, all with the approximate samplers: a successor
 //     starts exactly where its predecessor ended (N33);
-//  2. specular (delta) vertices are not junctions: a camera path folds them into its segment
-//     (a chain x -> specular ... -> y, integrated in (area at x) x (solid angle at x)); a light
-//     path ends at a delta surface (light-born chains would need the other side's density in
-//     a common measure), so every chain comes from the camera side only and needs no other
-//     technique in its MMIS sum;
+//  2. specular (delta) vertices are not junctions: a path folds them into its segment (a chain
+//     x -> specular ... -> y, integrated in (area at x) x (solid angle at x)). Light paths from
+//     area lights continue through delta reflections too (the caustic light -> mirror ->
+//     diffuse): the light side's densities, in area x solid angle at y, reach the chain's
+//     measure by the conservation of etendue, cos_y dA_y dw_y = cos_x dA_x dw_x. A delta
+//     transmission, or a Dirac light, ends a light path, so such chains come from the camera
+//     side only;
 //  3. endpoints are clustered on a jittered voxel grid whose cell shrinks like a PPM radius;
 //  4. every segment's MMIS denominator (N39)
 //       D(s) = [sensor] n_p p_W(s) + [light end] N_L p_L(s)
 //            + K_C(x) sum_{camera technique samples t ending in C(x)} p_w(s^ | y_t, s_t) |n_y . s^| / d^2
-//            + K_C(y) sum_{light technique samples t starting in C(y)} p_w(-s^ | x_t, s_t) |n_x . s^| / d^2,
+//            + K_C(y) sum_{light technique samples t starting in C(y)} p_w(-s^ | x_t, s_t) |n_x . s^| / d^2
+//            [+ K_C(x) n_cam(C(x)) p_L(y | x) with next-event segments],
 //     with the voxel kernel K_C = 1 / (area of the cluster's mean plane in the voxel). Dirac
 //     light ends (point lights, the sun) only light sampling can produce: D = N_L p_L;
 //  5. propagation over clusters, max_length - 1 Jacobi iterations, from L_e;
 //  6. gather: pixel p += W G L(s_1) / D(s_1) over its sensor segments.
 // Options beyond the paper's defaults: the disk support (every start within r of an end joins
 // it, K = 1 / (pi r^2), pi r^2 = h^2) instead of voxel clusters, and for BDPF bridge segments
-// from camera technique points to light-path starts (the bridge technique of SPEC 1.6), whose
-// density joins every denominator.
+// from camera technique points to light-path starts (the bridge technique of SPEC 1.6), and for
+// MVF and BDPF next-event segments from camera technique points to light points drawn by the
+// emitter (SPEC 1.6's light-end bridge, N34); each technique's density joins every denominator.
 // Known limits (measured, see tests/renderer/methods_test.cpp):
 //  - max_length counts pooled segments and propagation iterations; a chain through specular
 //    vertices is one segment, so paths with specular bounces may be longer than max_length
@@ -111,6 +115,11 @@ struct FilteringOptions {
   /// visible (SPEC 1.6 bridge, N34, with the approximate kernel draws of N33). Its technique
   /// density, for every plain segment s, is K(x_s) n_cam(x_s) K(y_s) n_light(y_s) / M.
   bool bridges = false;
+  /// MVF and BDPF: from every camera technique point y_t, one next-event segment to a light
+  /// point drawn by the emitter's sample_towards(y_t), kept when visible (the light-end bridge
+  /// of SPEC 1.6, N34, approximate: it starts exactly at y_t). A camera-side technique like the
+  /// BSDF successor: its density, for every plain segment s, is K(x_s) n_cam(C(x_s)) p_L(y_s | x_s).
+  bool next_event = false;
   /// Shift the voxel grid randomly each iteration (quantisation becomes noise). Off, the grid
   /// is aligned with the origin: on a periodic domain (canonical_position) whose period is a
   /// multiple of the voxel size, voxels then tile the fundamental cell exactly.
@@ -121,6 +130,7 @@ struct FilteringOptions {
 /// Counters of one iteration (pool size, clusters, how many were factorised).
 struct FilteringStats {
   std::uint64_t segments = 0, camera_segments = 0, light_segments = 0, bridge_segments = 0, clusters = 0;
+  std::uint64_t next_event_segments = 0;  ///< among the camera segments
   std::uint64_t junctions = 0;  ///< disk support: (end, start) pairs within r
   std::uint64_t factorised_camera_clusters = 0, factorised_light_clusters = 0, factorised_transfer_clusters = 0;
   std::uint64_t pair_evaluations = 0;  ///< technique-density and transfer evaluations
@@ -147,6 +157,9 @@ class SegmentFiltering {
     if (options.bridges && options.mode != FilteringMode::bdpf)
       throw std::invalid_argument(std::string("segpath::SegmentFiltering: bridge segments join camera and light paths, "
                                               "so they need mode bdpf, got ") + to_string(options.mode));
+    if (options.next_event && options.mode == FilteringMode::phf)
+      throw std::invalid_argument("segpath::SegmentFiltering: next-event segments start at camera technique points, "
+                                  "which photon filtering does not have (mode phf)");
     if constexpr (HasCanonicalPosition<Scn>) {
       // A bridge joins two points at their real positions, but its density would have to count
       // every periodic image of the two supports: it is not defined on a periodic domain.
@@ -201,6 +214,7 @@ class SegmentFiltering {
     build_pool(scene, iteration, pool, parallel_for);
     FilteringStats stats;
     stats.segments = pool.size();
+    stats.next_event_segments = pool.next_event_segments;
     for (auto f : pool.flags)
       (f & camera_born ? stats.camera_segments : f & bridge_segment ? stats.bridge_segments : stats.light_segments) += 1;
     stats.cell_size = double(cell);
@@ -241,14 +255,15 @@ class SegmentFiltering {
 
   // ---- The stages of one iteration, public for tests and instrumentation ------------------
 
-  static constexpr std::uint8_t sensor_segment = 1;     ///< s_1 of a camera path
-  static constexpr std::uint8_t camera_born = 2;        ///< drawn by the camera side
-  static constexpr std::uint8_t chain_segment = 4;      ///< contains delta vertices: (area x, solid angle x) measure
-  static constexpr std::uint8_t camera_technique = 8;   ///< a camera successor draw was attempted from it
-  static constexpr std::uint8_t light_technique = 16;   ///< a light predecessor draw was attempted from it
-  static constexpr std::uint8_t light_start = 32;       ///< drawn by the light-start sampler
-  static constexpr std::uint8_t delta_light = 64;       ///< its light end is a Dirac (point light, sun)
-  static constexpr std::uint8_t bridge_segment = 128;   ///< drawn by the bridge technique
+  static constexpr std::uint16_t sensor_segment = 1;     ///< s_1 of a camera path
+  static constexpr std::uint16_t camera_born = 2;        ///< drawn by the camera side
+  static constexpr std::uint16_t chain_segment = 4;      ///< contains delta vertices: (area x, solid angle x) measure
+  static constexpr std::uint16_t camera_technique = 8;   ///< a camera successor draw was attempted from it
+  static constexpr std::uint16_t light_technique = 16;   ///< a light predecessor draw was attempted from it
+  static constexpr std::uint16_t light_start = 32;       ///< drawn by the light-start sampler
+  static constexpr std::uint16_t delta_light = 64;       ///< its light end is a Dirac (point light, sun)
+  static constexpr std::uint16_t bridge_segment = 128;   ///< drawn by the bridge technique
+  static constexpr std::uint16_t transmission_chain = 256;  ///< a chain through a delta transmission (camera side only)
 
   /// One iteration's segments, structure of arrays (memory O(#segments)).
   struct Pool {
@@ -257,13 +272,20 @@ class SegmentFiltering {
     std::vector<S> chain, emitted;                         ///< delta-vertex throughput; chain * L_e(y)
     std::vector<T> geometry, density, sensor_weight;       ///< G, D and W for sensor segments
     std::vector<std::uint32_t> pixel;
-    std::vector<std::uint8_t> flags;
-    std::uint64_t bridge_targets = 0;  ///< M: light-born segments with a surface x (bridges on)
+    /// The segment whose technique sample drew this one: a camera successor's or next-event
+    /// segment's predecessor on its camera path, a light predecessor's successor on its light
+    /// path; no_parent for the unconditional draws (sensor, light start) and bridges.
+    std::vector<std::uint32_t> parent;
+    std::vector<std::uint16_t> flags;
+    std::uint64_t bridge_targets = 0;       ///< M: light-born segments with a surface x (bridges on)
+    std::uint64_t next_event_segments = 0;  ///< camera-born segments drawn by light sampling
     [[nodiscard]] std::size_t size() const noexcept { return segments.size(); }
     [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
-      return sizeof(Segment<T>) + 2 * sizeof(Vec3<T>) + 2 * sizeof(S) + 3 * sizeof(T) + sizeof(std::uint32_t) + 1;
+      return sizeof(Segment<T>) + 2 * sizeof(Vec3<T>) + 2 * sizeof(S) + 3 * sizeof(T) + 2 * sizeof(std::uint32_t) +
+             sizeof(std::uint16_t);
     }
   };
+  static constexpr std::uint32_t no_parent = 0xffffffffu;
 
   /// A segment as a path generator produces it, before pooling.
   struct Record {
@@ -272,7 +294,9 @@ class SegmentFiltering {
     S chain;
     T geometry = 0, sensor_weight = 0;
     std::uint32_t pixel = 0;
-    std::uint8_t flags = 0;
+    std::uint32_t parent = no_parent;  ///< index in the same generator's record list
+    std::uint16_t flags = 0;
+    bool next_event = false;
   };
 
   /// N_L: light paths per iteration.
@@ -300,11 +324,9 @@ class SegmentFiltering {
     for (std::size_t c = 0; c < chunk_count; ++c) total += camera[c].size() + light[c].size();
     auto reserve = [&](auto& v) { v.reserve(total); };
     reserve(pool.segments), reserve(pool.first_direction), reserve(pool.last_direction), reserve(pool.chain);
-    reserve(pool.geometry), reserve(pool.sensor_weight), reserve(pool.pixel), reserve(pool.flags);
-    for (const auto& chunk : camera)
-      for (const auto& r : chunk) append(pool, r);
-    for (const auto& chunk : light)
-      for (const auto& r : chunk) append(pool, r);
+    reserve(pool.geometry), reserve(pool.sensor_weight), reserve(pool.pixel), reserve(pool.parent), reserve(pool.flags);
+    for (const auto& chunk : camera) append(pool, chunk);
+    for (const auto& chunk : light) append(pool, chunk);
     if (options_.bridges) add_bridges(scene, iteration, pool, parallel_for);
     const auto& emitter = scene.emitter();
     pool.emitted.resize(pool.size());
@@ -319,15 +341,21 @@ class SegmentFiltering {
   }
 
  private:
-  static void append(Pool& pool, const Record& r) {
-    pool.segments.push_back(r.segment);
-    pool.first_direction.push_back(r.first_direction);
-    pool.last_direction.push_back(r.last_direction);
-    pool.chain.push_back(r.chain);
-    pool.geometry.push_back(r.geometry);
-    pool.sensor_weight.push_back(r.sensor_weight);
-    pool.pixel.push_back(r.pixel);
-    pool.flags.push_back(r.flags);
+  /// Appends one generator's records; their parents index `records`, the pool's the pool.
+  static void append(Pool& pool, std::span<const Record> records) {
+    const auto base = std::uint32_t(pool.size());
+    for (const Record& r : records) {
+      pool.segments.push_back(r.segment);
+      pool.first_direction.push_back(r.first_direction);
+      pool.last_direction.push_back(r.last_direction);
+      pool.chain.push_back(r.chain);
+      pool.geometry.push_back(r.geometry);
+      pool.sensor_weight.push_back(r.sensor_weight);
+      pool.pixel.push_back(r.pixel);
+      pool.parent.push_back(r.parent == no_parent ? no_parent : base + r.parent);
+      pool.flags.push_back(r.flags);
+      pool.next_event_segments += r.next_event ? 1 : 0;
+    }
   }
 
   /// Bridge segments (BDPF option): every camera technique point y_t draws one light-born
@@ -364,8 +392,7 @@ class SegmentFiltering {
         bridges[c].push_back(r);
       }
     });
-    for (const auto& chunk : bridges)
-      for (const auto& r : chunk) append(pool, r);
+    for (const auto& chunk : bridges) append(pool, chunk);
   }
 
   /// One camera path: the sensor segment, then approximate successors (N33) from each
@@ -398,6 +425,7 @@ class SegmentFiltering {
         next = bsdf.sample(BsdfSampleQuery<T>{y, -direction, uniform2<T>(rng), rng.template uniform<T>(), Transport::radiance});
         if (next && next->delta && next->pdf > T(0)) {
           chain = chain * (next->value * (std::abs(glm::dot(next->direction, y.normal)) / next->pdf));
+          if (is_transmission(y, -direction, next->direction)) r.flags |= transmission_chain;
           const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{y.position, next->direction}});
           direction = next->direction;
           ++pieces;
@@ -423,7 +451,9 @@ class SegmentFiltering {
       const bool attempted = options_.mode != FilteringMode::phf && pieces < max_pieces && y.kind == PointKind::surface;
       if (attempted) r.flags |= camera_technique;
       const bool continues = attempted && next && !next->delta && next->pdf > T(0);
+      const auto index = std::uint32_t(out.size());
       out.push_back(r);
+      if (attempted && options_.next_event) add_next_event(scene, index, rng, out);
       if (!continues) return;
       // The approximate successor (N33): starts exactly at y, direction from the BSDF at y.
       const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{y.position, next->direction}});
@@ -431,6 +461,7 @@ class SegmentFiltering {
       successor.segment.x = y;
       successor.first_direction = next->direction;
       successor.flags = camera_born;
+      successor.parent = index;
       r = successor;
       direction = next->direction;
       chain = S(T(1));
@@ -443,6 +474,30 @@ class SegmentFiltering {
         distance = T(1);
       }
     }
+  }
+
+  /// The next-event segment of the camera technique point y of `out[source]`: a light point
+  /// from sample_towards(y), kept when visible. A failed draw is still a technique sample (the
+  /// density counts every camera technique point).
+  template <class R>
+  void add_next_event(const Scn& scene, std::uint32_t source, R& rng, std::vector<Record>& out) const {
+    const Vec2<T> u = uniform2<T>(rng);
+    const T u_select = rng.template uniform<T>();
+    const SurfacePoint<T> x = out[source].segment.y;
+    const auto e = scene.emitter().sample_towards(EmitterTowardsQuery<T>{x, u, u_select});
+    if (!e || !(e->pdf > T(0)) || !std::isfinite(e->pdf)) return;
+    Record r;
+    r.segment = Segment<T>{x, e->point};
+    if (r.segment.y.kind != PointKind::direction && !(r.segment.length_squared() > T(0))) return;
+    r.geometry = geometry_term(r.segment);
+    if (!(r.geometry > T(0)) || !std::isfinite(r.geometry)) return;
+    if (!scene.visible(VisibilityQuery<T>{r.segment.x, r.segment.y})) return;
+    r.first_direction = r.last_direction = r.segment.direction();
+    r.chain = S(T(1));
+    r.flags = camera_born | (e->delta ? delta_light : 0);
+    r.parent = source;
+    r.next_event = true;
+    out.push_back(r);
   }
 
   /// One light path: the light-start segment (N30), then approximate light-side
@@ -459,16 +514,32 @@ class SegmentFiltering {
     // G in the segment's product measure; for a distant light the end at infinity drops 1/d^2.
     r.geometry = geometry_term(first->segment);
     const auto& bsdf = scene.bsdf();
+    // Through delta reflections the segment continues into a light-born chain, measured like
+    // the camera's (area x solid angle at x); its density needs the light end's area measure
+    // (light_measure), so only area lights continue, and a delta transmission (whose radiance
+    // and importance throughputs differ) ends the path.
+    const bool chains = !first->delta && r.segment.y.kind == PointKind::surface;
     for (std::size_t pieces = 1;; ++pieces) {
       const SurfacePoint<T>& x = r.segment.x;
       std::optional<BsdfSample<S>> prev;
       const bool attempted = x.kind == PointKind::surface && pieces + 1 < options_.max_length;
       if (attempted)
         prev = bsdf.sample(BsdfSampleQuery<T>{x, r.first_direction, uniform2<T>(rng), rng.template uniform<T>(), Transport::importance});
+      if (chains && prev && prev->delta && prev->pdf > T(0) && !is_transmission(x, r.first_direction, prev->direction)) {
+        const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{x.position, prev->direction}});
+        if (!hit) return;  // the chain leaves the scene: no sensor segment can join it
+        r.chain = r.chain * (prev->value * (std::abs(glm::dot(prev->direction, x.normal)) / prev->pdf));
+        r.segment.x = hit->point;
+        r.first_direction = -prev->direction;
+        r.flags |= chain_segment;
+        r.geometry = endpoint_cosine(r.segment.x, r.first_direction);
+        continue;
+      }
       // A technique sample whether or not its draw succeeded (see trace_camera_path); a
-      // delta surface ends the light path and has no density for any segment anyway.
+      // delta surface that does not continue the chain ends the light path.
       if (attempted && !(prev && prev->delta)) r.flags |= light_technique;
       const bool continues = prev && !prev->delta && prev->pdf > T(0);
+      const auto index = std::uint32_t(out.size());
       out.push_back(r);
       if (!continues) return;
       // The approximate predecessor: y' = x exactly, x' the first hit towards the sensor side.
@@ -479,6 +550,7 @@ class SegmentFiltering {
       predecessor.first_direction = predecessor.last_direction = -prev->direction;
       predecessor.chain = S(T(1));
       predecessor.geometry = geometry_term(predecessor.segment, -prev->direction, hit->distance);
+      predecessor.parent = index;
       r = predecessor;
     }
   }
@@ -745,18 +817,24 @@ class SegmentFiltering {
       stats.factorised_camera_clusters += camera_fact[c];
       stats.factorised_light_clusters += light_fact[c];
     }
-    // Bridge technique: K(x) n_cam(C(x)) K(y) n_light(C(y)) / M.
-    std::vector<T> bridge_sum;
-    if (options_.bridges && pool.bridge_targets > 0) {
-      bridge_sum.assign(pool.size(), T(0));
+    // Camera technique points per unit area at x, K(x) n_cam(C(x)), for the techniques that
+    // draw their segment's x from any of them: bridges, K(x) n_cam(C(x)) K(y) n_light(C(y)) / M,
+    // and next-event segments (finish_densities).
+    const bool bridges = options_.bridges && pool.bridge_targets > 0;
+    std::vector<T> camera_points_at_x, bridge_sum;
+    if (bridges || options_.next_event) {
+      camera_points_at_x.assign(pool.size(), T(0));
+      if (bridges) bridge_sum.assign(pool.size(), T(0));
       parallel_for(pool.size(), [&](std::size_t i) {
         const std::uint32_t cx = clustering.cluster_of_x(std::uint32_t(i)), cy = clustering.cluster_of_y(std::uint32_t(i));
-        if (cx == no_cluster || cy == no_cluster || !bridge_reachable(pool, i)) return;
-        bridge_sum[i] = clusters[cx].kernel * T(camera_points[cx]) * clusters[cy].kernel * T(bridge_targets[cy]) /
-                        T(pool.bridge_targets);
+        if (cx == no_cluster) return;
+        camera_points_at_x[i] = clusters[cx].kernel * T(camera_points[cx]);
+        if (bridges && cy != no_cluster && bridge_reachable(pool, i))
+          bridge_sum[i] = camera_points_at_x[i] * clusters[cy].kernel * T(bridge_targets[cy]) / T(pool.bridge_targets);
       });
+      if (!options_.next_event) camera_points_at_x.clear();
     }
-    finish_densities(scene, pool, camera_sum, light_sum, bridge_sum, parallel_for);
+    finish_densities(scene, pool, camera_sum, light_sum, bridge_sum, camera_points_at_x, parallel_for);
   }
 
   /// Step 4 over the disk support: the technique samples of a segment are its neighbour lists
@@ -769,6 +847,7 @@ class SegmentFiltering {
     const T kernel = junctions.kernel();
     const bool bridges = options_.bridges && pool.bridge_targets > 0;
     std::vector<T> camera_sum(pool.size(), T(0)), light_sum(pool.size(), T(0)), bridge_sum(bridges ? pool.size() : 0, T(0));
+    std::vector<T> camera_points_at_x(options_.next_event ? pool.size() : 0, T(0));
     constexpr std::size_t chunk = 1024;
     const std::size_t chunks = (pool.size() + chunk - 1) / chunk;
     std::vector<std::uint64_t> pairs(chunks, 0);
@@ -795,20 +874,25 @@ class SegmentFiltering {
         if (sum > T(0)) light_sum[sp] = kernel * sum * light_measure(pool, sp);
         if (bridges && bridge_reachable(pool, sp))
           bridge_sum[sp] = kernel * T(camera_points) * kernel * T(targets) / T(pool.bridge_targets);
+        if (options_.next_event) camera_points_at_x[sp] = kernel * T(camera_points);
       }
     });
     for (const auto p : pairs) stats.pair_evaluations += p;
-    finish_densities(scene, pool, camera_sum, light_sum, bridge_sum, parallel_for);
+    finish_densities(scene, pool, camera_sum, light_sum, bridge_sum, camera_points_at_x, parallel_for);
   }
 
  private:
   /// Which segments each conditional technique can produce: a camera successor any segment
   /// but one with a Dirac light end (N31); a light predecessor ends its ray at a surface hit,
-  /// so never a segment whose x is off the manifold (a sensor segment), a chain, or a Dirac
-  /// light end; a bridge any straight segment between two surface points.
+  /// so never a segment whose x is off the manifold (a sensor segment), a chain through a delta
+  /// transmission, or a Dirac light end; a bridge any straight segment between two surface points.
   [[nodiscard]] static bool camera_reachable(const Pool& pool, std::size_t s) noexcept { return !(pool.flags[s] & delta_light); }
   [[nodiscard]] static bool light_reachable(const Pool& pool, std::size_t s) noexcept {
-    return !(pool.flags[s] & (chain_segment | delta_light)) && pool.segments[s].x.kind == PointKind::surface;
+    return !(pool.flags[s] & (transmission_chain | delta_light)) && pool.segments[s].x.kind == PointKind::surface;
+  }
+  /// Whether a delta scattering at p from `fixed` to `sampled` crosses the surface.
+  [[nodiscard]] static bool is_transmission(const SurfacePoint<T>& p, const Vec3<T>& fixed, const Vec3<T>& sampled) noexcept {
+    return glm::dot(fixed, p.normal) * glm::dot(sampled, p.normal) < T(0);
   }
   [[nodiscard]] static bool bridge_reachable(const Pool& pool, std::size_t s) noexcept {
     return !(pool.flags[s] & (chain_segment | delta_light)) && pool.segments[s].x.kind == PointKind::surface &&
@@ -829,35 +913,50 @@ class SegmentFiltering {
   [[nodiscard]] static T camera_measure(const Pool& pool, std::size_t s) noexcept {
     return (pool.flags[s] & chain_segment) ? T(1) : solid_angle_to_area(T(1), pool.segments[s].x, pool.segments[s].y);
   }
+  /// Area x solid angle at y (light techniques) to the segment's measure: area at x for a plain
+  /// segment; for a chain, area x solid angle at x, through mirrors by the conservation of
+  /// etendue, cos_y dA_y dw_y = cos_x dA_x dw_x: cos_x / cos_y. (With Fresnel-selected delta
+  /// reflections both sides pick the same lobe with the same probability, so the selection
+  /// factors, left out of every density of a chain, agree.)
   [[nodiscard]] static T light_measure(const Pool& pool, std::size_t s) noexcept {
-    return solid_angle_to_area(T(1), pool.segments[s].y, pool.segments[s].x);
+    if (!(pool.flags[s] & chain_segment)) return solid_angle_to_area(T(1), pool.segments[s].y, pool.segments[s].x);
+    const T cos_y = endpoint_cosine(pool.segments[s].y, pool.last_direction[s]);
+    return cos_y > T(0) ? endpoint_cosine(pool.segments[s].x, pool.first_direction[s]) / cos_y : T(0);
   }
 
-  /// The unconditional techniques (sensor, light start) and the total D(s).
+  /// The unconditional techniques (sensor, light start), next-event segments (from K(x) n_cam
+  /// per segment, empty when off) and the total D(s).
   template <class P>
   void finish_densities(const Scn& scene, Pool& pool, const std::vector<T>& camera_sum, const std::vector<T>& light_sum,
-                        const std::vector<T>& bridge_sum, const P& parallel_for) const {
+                        const std::vector<T>& bridge_sum, const std::vector<T>& camera_points_at_x,
+                        const P& parallel_for) const {
     const std::uint64_t light_paths = light_path_count(scene);
     parallel_for(pool.size(), [&](std::size_t i) {
-      const std::uint8_t f = pool.flags[i];
+      const std::uint16_t f = pool.flags[i];
       const Segment<T>& s = pool.segments[i];
       T d = camera_sum[i] + light_sum[i] + (bridge_sum.empty() ? T(0) : bridge_sum[i]);
       if (f & sensor_segment) {
         const SensorPdf<T> p = scene.sensor().pdf(SensorQuery<T>{s.x, pool.first_direction[i]});
         d += p.position * p.direction * ((f & chain_segment) ? T(1) : solid_angle_to_area(T(1), s.x, s.y));
       }
-      if (light_paths > 0 && !(f & chain_segment)) {
-        // N_L p_L(s) (N30) for any plain segment whose light end could be emitted.
+      // Light-born chains leave area lights only (trace_light_path).
+      const bool light_chain = (f & chain_segment) && s.y.kind == PointKind::surface && light_reachable(pool, i);
+      if (light_paths > 0 && (!(f & chain_segment) || light_chain)) {
+        // N_L p_L(s) (N30) for any segment whose light end could be emitted.
         // For a distant light end pdf_emission reads a point on the ray (concepts/emitter.hpp).
         const Vec3<T> leaving = s.y.kind == PointKind::direction ? s.x.position : -pool.last_direction[i];
         const EmissionPdf<T> e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{s.y, leaving});
         T p_light = e.position * e.direction;
         if (p_light > T(0) && s.x.kind == PointKind::surface) {
-          p_light *= s.y.kind == PointKind::direction ? endpoint_cosine(s.x, pool.last_direction[i])
-                                                      : solid_angle_to_area(T(1), s.y, s.x);
+          p_light *= s.y.kind == PointKind::direction ? endpoint_cosine(s.x, pool.last_direction[i]) : light_measure(pool, i);
           if (f & delta_light) d = T(0);  // only light sampling produces a Dirac light end
           d += T(light_paths) * p_light;
         }
+      }
+      if (!camera_points_at_x.empty() && camera_points_at_x[i] > T(0) && s.x.kind == PointKind::surface && !(f & chain_segment)) {
+        // Next-event segments: K(x) n_cam(C(x)) p_L(y | x), in y's measure (a Dirac's coefficient).
+        const T p_towards = scene.emitter().pdf_towards(EmitterPdfTowardsQuery<T>{s.x, s.y});
+        if (p_towards > T(0)) d += camera_points_at_x[i] * p_towards;
       }
       pool.density[i] = std::isfinite(d) ? d : T(0);
     });

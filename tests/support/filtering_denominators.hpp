@@ -1,0 +1,102 @@
+// Test kit for SegmentFiltering: recomputes every pooled segment's MMIS denominator D(s) (N39)
+// by enumerating all pooled segments as candidate technique samples, written out from the
+// techniques' definitions rather than from the clusters the algorithm iterates over.
+#pragma once
+
+#include <segpath/algorithms/segment_filtering.hpp>
+
+#include <cstdint>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "support/catch.hpp"
+
+namespace segpath::testing {
+
+/// `kernel(end, start)` is the kernel value joining the end y_t of one pooled segment to the
+/// start x_s of another (0 outside the support). Checks D(s) for every segment within 1e-12
+/// relative (double; float scenes: 1e-4, the sums run in another order) and returns
+/// {segments checked, segments with more than one technique sample}.
+template <class Filter, class Scn, class Kernel>
+std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, const Scn& scene, const typename Filter::Pool& pool,
+                                                       const Kernel& kernel) {
+  using T = typename Scn::Scalar;
+  const double tolerance = std::is_same_v<T, double> ? 1e-12 : 1e-4;
+  const auto& bsdf = scene.bsdf();
+  const double n_light = double(filter.light_path_count(scene));
+  const bool next_event = filter.options().next_event;
+  std::vector<std::uint32_t> targets;
+  for (std::uint32_t u = 0; u < pool.size(); ++u)
+    if (!(pool.flags[u] & (Filter::camera_born | Filter::bridge_segment)) && pool.segments[u].x.kind == PointKind::surface)
+      targets.push_back(u);
+  CHECK(pool.bridge_targets == (filter.options().bridges ? targets.size() : 0));
+  std::size_t checked = 0, with_techniques = 0;
+  for (std::uint32_t s = 0; s < pool.size(); ++s) {
+    const auto& seg = pool.segments[s];
+    const auto f = pool.flags[s];
+    const bool chain = (f & Filter::chain_segment) != 0;
+    const bool on_surface = seg.x.kind == PointKind::surface;
+    const bool plain = !chain && !(f & Filter::delta_light) && on_surface;
+    // What a light technique can draw: any segment from a surface point, through delta
+    // reflections (a chain) but not a delta transmission, to a non-Dirac end.
+    const bool light_drawable = !(f & (Filter::transmission_chain | Filter::delta_light)) && on_surface;
+    // Area x solid angle at y to the segment's measure: area at x, or for a chain area x solid
+    // angle at x (etendue: cos_y dA_y dw_y = cos_x dA_x dw_x).
+    const double to_segment_measure =
+        chain ? double(std::abs(glm::dot(seg.x.normal, pool.first_direction[s]))) / double(std::abs(glm::dot(seg.y.normal, pool.last_direction[s])))
+              : double(solid_angle_to_area(T(1), seg.y, seg.x));
+    double d = 0, camera_points = 0;
+    int techniques = 0;
+    for (std::uint32_t t = 0; t < pool.size(); ++t) {
+      // A camera technique sample: a continued segment whose end's support holds x_s.
+      if (pool.flags[t] & Filter::camera_technique) {
+        const double k = kernel(t, s);
+        camera_points += k;
+        if (k > 0 && !(f & Filter::delta_light)) {
+          const double measure = chain ? 1.0 : double(solid_angle_to_area(T(1), seg.x, seg.y));
+          d += k * measure *
+               double(bsdf.pdf(BsdfQuery<T>{pool.segments[t].y, -pool.last_direction[t], pool.first_direction[s], Transport::radiance}));
+          ++techniques;
+        }
+      }
+      // A light technique sample: a continued light segment whose start lies in y_s's support.
+      if ((pool.flags[t] & Filter::light_technique) && light_drawable) {
+        const double k = kernel(s, t);
+        if (k > 0) {
+          d += k * to_segment_measure *
+               double(bsdf.pdf(BsdfQuery<T>{pool.segments[t].x, -pool.last_direction[s], pool.first_direction[t], Transport::importance}));
+          ++techniques;
+        }
+      }
+    }
+    // A bridge: any camera technique point to any of the M targets, uniform kernel draws at both ends.
+    if (filter.options().bridges && plain && seg.y.kind == PointKind::surface && !targets.empty()) {
+      double bridge_light = 0;
+      for (const std::uint32_t u : targets) bridge_light += kernel(s, u);
+      d += camera_points * bridge_light / double(targets.size());
+      techniques += camera_points * bridge_light > 0;
+    }
+    // A next-event segment: from any camera technique point, the light end by light sampling.
+    if (next_event && on_surface && !chain && camera_points > 0) {
+      const double p = double(scene.emitter().pdf_towards(EmitterPdfTowardsQuery<T>{seg.x, seg.y}));
+      d += camera_points * p;
+      techniques += p > 0;
+    }
+    if (f & Filter::sensor_segment) {
+      const auto p = scene.sensor().pdf(SensorQuery<T>{seg.x, pool.first_direction[s]});
+      d += double(p.position) * double(p.direction) * (chain ? 1.0 : double(solid_angle_to_area(T(1), seg.x, seg.y)));
+    }
+    // A light start: plain segments and light-born chains (from area lights only).
+    if (on_surface && (!chain || (light_drawable && seg.y.kind == PointKind::surface))) {
+      const auto e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{seg.y, -pool.last_direction[s]});
+      d += n_light * double(e.position) * double(e.direction) * to_segment_measure;
+    }
+    CHECK(double(pool.density[s]) == Approx(d).epsilon(tolerance).margin(1e-300));
+    ++checked;
+    if (techniques > 1) ++with_techniques;
+  }
+  return {checked, with_techniques};
+}
+
+}  // namespace segpath::testing
