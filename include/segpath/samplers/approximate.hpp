@@ -9,6 +9,7 @@
 #include "segpath/core/contribution.hpp"
 #include "segpath/core/geometry.hpp"
 #include "segpath/samplers/light_next.hpp"
+#include "segpath/samplers/next_segment.hpp"
 
 #include <optional>
 
@@ -33,18 +34,13 @@ class ApproximateNextSegmentSampler {
  public:
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
-  /// The segment s_i being continued, with its unit direction (as NextSegmentSampler's).
-  struct Technique {
-    const Segment<T>& previous;
-    Vec3<T> direction;
-    Technique(const Segment<T>& s) noexcept : previous(s), direction(s.direction()) {}  // NOLINT: implicit by design
-    Technique(const Segment<T>& s, const Vec3<T>& d) noexcept : previous(s), direction(d) {}
-  };
+  /// The segment s_i being continued, with its unit direction (NextSegmentSampler's).
+  using Technique = typename NextSegmentSampler<Scn, K>::Technique;
   static constexpr bool is_dirac = K::is_dirac;
 
   explicit ApproximateNextSegmentSampler(K kernel) noexcept(std::is_nothrow_move_constructible_v<K>)
-      : kernel_(std::move(kernel)) {}
-  [[nodiscard]] const K& kernel() const noexcept { return kernel_; }
+      : exact_(std::move(kernel)) {}
+  [[nodiscard]] const K& kernel() const noexcept { return exact_.kernel(); }
 
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
@@ -65,9 +61,9 @@ class ApproximateNextSegmentSampler {
           T(0)))
       return out;
     const Segment<T> s{prev.y, hit->point};
-    const T p_kernel = kernel_.pdf(KernelQuery<T>{prev, s});
+    const T p_kernel = kernel().pdf(KernelQuery<T>{prev, s});
     if (!(p_kernel > T(0))) return out;
-    const T k = kernel_.eval(KernelQuery<T>{prev, s});
+    const T k = kernel().eval(KernelQuery<T>{prev, s});
     const T cos_x = endpoint_cosine(s.x, bsdf->direction);
     const T area_factor = solid_angle_to_area(T(1), s.x, s.y, bsdf->direction, hit->distance);
     out.emplace(s, bsdf->direction, link_factor(k, bsdf->value, cos_x * area_factor),
@@ -75,21 +71,15 @@ class ApproximateNextSegmentSampler {
     return out;
   }
 
-  /// p_K(s.x | s_i) p_w(s^ | y_i, s_i) |n_y . s^| / d^2 with V(x, y), for any segment s.
+  /// p_K(s.x | s_i) p_w(s^ | y_i, s_i) |n_y . s^| / d^2 with V(x, y), for any segment s:
+  /// NextSegmentSampler's (N31).
   [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
-    const Segment<T>& prev = t.previous;
     if (s.y.kind != PointKind::direction && !(s.length_squared() > T(0))) return T(0);
-    const T p_kernel = kernel_.pdf(KernelQuery<T>{prev, s});
-    if (!(p_kernel > T(0))) return T(0);
-    const T p_direction =
-        scene.bsdf().pdf(BsdfQuery<T>{prev.y, -t.direction, s.direction(), Transport::radiance});
-    if (!(p_direction > T(0))) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
-    return p_kernel * solid_angle_to_area(p_direction, s.x, s.y);
+    return exact_.pdf(scene, t, s);
   }
 
  private:
-  K kernel_;
+  NextSegmentSampler<Scn, K> exact_;  ///< its kernel and density
 };
 
 /// Light-side approximate successor (N33), the mirror image: y_i = x_{i+1} itself, the
@@ -105,18 +95,14 @@ class ApproximateLightNextSegmentSampler {
  public:
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
-  /// The segment s_{i+1} being continued towards the sensor, with its unit direction.
-  struct Technique {
-    const Segment<T>& next;
-    Vec3<T> direction;
-    Technique(const Segment<T>& s) noexcept : next(s), direction(s.direction()) {}  // NOLINT: implicit by design
-    Technique(const Segment<T>& s, const Vec3<T>& d) noexcept : next(s), direction(d) {}
-  };
+  /// The segment s_{i+1} being continued towards the sensor, with its unit direction
+  /// (LightNextSegmentSampler's).
+  using Technique = typename LightNextSegmentSampler<Scn, K>::Technique;
   static constexpr bool is_dirac = K::is_dirac;
 
   explicit ApproximateLightNextSegmentSampler(K kernel) noexcept(std::is_nothrow_move_constructible_v<K>)
-      : kernel_(std::move(kernel)) {}
-  [[nodiscard]] const K& kernel() const noexcept { return kernel_; }
+      : exact_(std::move(kernel)) {}
+  [[nodiscard]] const K& kernel() const noexcept { return exact_.kernel(); }
 
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
@@ -125,10 +111,10 @@ class ApproximateLightNextSegmentSampler {
     const T u1 = rng.template uniform<T>();
     const T u_lobe = rng.template uniform<T>();
     // Junction density 1 first; the kernel's density at its centre needs the finished s_i.
-    auto out = detail::light_continue_from(scene, kernel_, t.next, t.direction, t.next.x, T(1), Vec2<T>(u0, u1),
+    auto out = detail::light_continue_from(scene, kernel(), t.next, t.direction, t.next.x, T(1), Vec2<T>(u0, u1),
                                            u_lobe);
     if (!out) return out;
-    const T p_kernel = kernel_.pdf(KernelQuery<T>{detail::reversed(t.next), detail::reversed(out->segment)});
+    const T p_kernel = kernel().pdf(KernelQuery<T>{detail::reversed(t.next), detail::reversed(out->segment)});
     if (!(p_kernel > T(0))) {
       out.reset();
       return out;
@@ -138,21 +124,14 @@ class ApproximateLightNextSegmentSampler {
     return out;
   }
 
-  /// p_K(s.y | s_{i+1}) p_w(-s^ | y, s^_{i+1}) |n_x . s^| / d^2 with V(x, y), for any segment s.
+  /// p_K(s.y | s_{i+1}) p_w(-s^ | y, s^_{i+1}) |n_x . s^| / d^2 with V(x, y), for any segment s:
+  /// LightNextSegmentSampler's.
   [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
-    if (s.x.kind == PointKind::direction || !(s.length_squared() > T(0))) return T(0);
-    const T p_kernel = kernel_.pdf(KernelQuery<T>{detail::reversed(t.next), detail::reversed(s)});
-    if (!(p_kernel > T(0))) return T(0);
-    const Vec3<T> direction = s.direction();
-    const T p_direction =
-        scene.bsdf().pdf(BsdfQuery<T>{s.y, -direction, t.direction, Transport::importance});
-    if (!(p_direction > T(0))) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
-    return p_kernel * solid_angle_to_area(p_direction, s.y, s.x);
+    return exact_.pdf(scene, t, s);
   }
 
  private:
-  K kernel_;
+  LightNextSegmentSampler<Scn, K> exact_;  ///< its kernel and density
 };
 
 }  // namespace segpath
