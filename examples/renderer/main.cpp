@@ -18,6 +18,7 @@
 #include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
+#include <malloc.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -242,6 +243,10 @@ int run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // The filtering methods build pools of a few hundred MB per iteration: keep freed blocks in
+  // the heap (glibc would return them with munmap and the kernel zero every page again).
+  mallopt(M_MMAP_THRESHOLD, 1 << 30);
+  mallopt(M_TRIM_THRESHOLD, -1);
   Options o;
   CLI::App app("segpath-render: renders a scene with one of segpath's methods and writes EXR/PFM/PNG images.",
                "segpath-render");

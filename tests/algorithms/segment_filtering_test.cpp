@@ -283,6 +283,33 @@ void check_disk_denominators(const Scn& scene, bool bridges, bool next_event, do
 
 }  // namespace
 
+TEST_CASE("segment filtering: the transfer cache gives the same image, whole or partial", "[algorithms]") {
+  // The sphere's points have many normals, so few clusters factorise and most pairs are cached.
+  const PhotographedSphere scene(8);
+  FilteringOptions<double> o;
+  o.max_length = 5;
+  o.next_event = true;
+  o.transfer_cache_bytes = 0;
+  const SegmentFiltering<PhotographedSphere> uncached(o);
+  Framebuffer<double> reference(8, 8);
+  DropCounters drops;
+  const auto s0 = uncached.render_iteration(scene, 2, 0.3, reference, drops);
+  CHECK(s0.transfer_cache_bytes == 0);
+  std::size_t full_bytes = 0;
+  for (const std::size_t budget : {std::size_t(1) << 30, std::size_t(4096)}) {
+    o.transfer_cache_bytes = budget;
+    const SegmentFiltering<PhotographedSphere> cached(o);
+    Framebuffer<double> image(8, 8);
+    const auto stats = cached.render_iteration(scene, 2, 0.3, image, drops);
+    INFO("budget " << budget << ": cache " << stats.transfer_cache_bytes << " bytes");
+    CHECK(stats.transfer_cache_bytes > 0);
+    if (full_bytes == 0) full_bytes = stats.transfer_cache_bytes;
+    else CHECK(stats.transfer_cache_bytes < full_bytes);  // partial: some clusters evaluated in the loop
+    for (std::uint32_t p = 0; p < 64; ++p) CHECK(image[p] == reference[p]);
+  }
+  CHECK(drops.total() == 0);
+}
+
 TEST_CASE("every MMIS denominator includes every technique sample of its cluster", "[algorithms]") {
   // Voxel support: the kernel joining two ends is read from cluster ids only — not from the
   // clusters' member lists the algorithm iterates over.

@@ -120,6 +120,10 @@ struct FilteringOptions {
   /// of SPEC 1.6, N34, approximate: it starts exactly at y_t). A camera-side technique like the
   /// BSDF successor: its density, for every plain segment s, is K(x_s) n_cam(C(x_s)) p_L(y_s | x_s).
   bool next_event = false;
+  /// Voxel support: f_r(s, s') of the pairs of non-factorised clusters is computed once per
+  /// iteration instead of once per propagation sweep, for as many clusters (in order) as fit in
+  /// this many bytes; the others are evaluated in every sweep. 0: no cache, memory O(#segments).
+  std::size_t transfer_cache_bytes = std::size_t(1) << 30;
   /// Shift the voxel grid randomly each iteration (quantisation becomes noise). Off, the grid
   /// is aligned with the origin: on a periodic domain (canonical_position) whose period is a
   /// multiple of the voxel size, voxels then tile the fundamental cell exactly.
@@ -135,7 +139,8 @@ struct FilteringStats {
   std::uint64_t factorised_camera_clusters = 0, factorised_light_clusters = 0, factorised_transfer_clusters = 0;
   std::uint64_t pair_evaluations = 0;  ///< technique-density and transfer evaluations
   double cell_size = 0;
-  std::size_t bytes_per_segment = 0;
+  std::size_t bytes_per_segment = 0;    ///< O(#segments) memory, without the transfer cache
+  std::size_t transfer_cache_bytes = 0;  ///< FilteringOptions::transfer_cache_bytes at most
 };
 
 template <LightSampledScene Scn>
@@ -232,7 +237,7 @@ class SegmentFiltering {
       propagate_pool(scene, pool, clustering, iterations, radiance, weighted_geometry, stats, parallel_for);
       support_bytes = clustering.bytes_per_segment();
       // Propagation: diffuse when factorising, the transfer and the workspace.
-      propagation_bytes = (options_.factorise ? sizeof(S) : 0) + Transfer::bytes_per_segment() +
+      propagation_bytes = (options_.factorise ? sizeof(S) : 0) + Transfer::bytes_per_segment() + PairCache::bytes_per_segment +
                           PropagationWorkspace<S>::bytes_per_segment;
     } else {
       DiskJunctions<T> junctions;
@@ -644,6 +649,46 @@ class SegmentFiltering {
     }
   };
 
+  /// f_r(s, s') chain(s) per (ending, starting) slot pair of the clusters that are not
+  /// factorised, evaluated once per pool, cluster by cluster in order while they fit in a byte
+  /// budget (a cluster that does not fit is skipped, later smaller ones may still fit).
+  struct PairCache {
+    static constexpr std::int64_t no_row = -(std::int64_t(1) << 62);
+    std::vector<S> value;
+    std::vector<std::int64_t> row;  ///< per ending slot i: value[row[i] + j] for starting slot j, or no_row
+
+    template <class Link, class P = SerialFor>
+    void build(const Link& link, const Clustering<T>& clustering, std::span<const std::uint8_t> factorised,
+               std::size_t budget_bytes, const P& parallel_for = {}) {
+      const auto clusters = clustering.clusters();
+      row.assign(clustering.ending_slot_count(), no_row);
+      constexpr std::size_t none = ~std::size_t(0);
+      std::vector<std::size_t> offset(clusters.size(), none);
+      const std::size_t budget = budget_bytes / sizeof(S);
+      std::size_t total = 0;
+      for (std::size_t c = 0; c < clusters.size(); ++c) {
+        if (!factorised.empty() && factorised[c]) continue;
+        const std::size_t pairs = std::size_t(clusters[c].ending_count()) * clusters[c].starting_count();
+        if (pairs == 0 || total + pairs > budget) continue;
+        offset[c] = total;
+        total += pairs;
+      }
+      value.resize(total);
+      parallel_for(clusters.size(), [&](std::size_t c) {
+        if (offset[c] == none) return;
+        const Cluster<T>& cl = clusters[c];
+        const std::uint32_t first = cl.ending_slot(cl.middle), m = cl.starting_count();
+        for (std::uint32_t e = 0; e < cl.ending_count(); ++e) {
+          const std::size_t base = offset[c] + std::size_t(e) * m;
+          row[first + e] = std::int64_t(base) - std::int64_t(cl.slot);
+          for (std::uint32_t q = 0; q < m; ++q) value[base + q] = link(0, 0, first + e, cl.slot + q);
+        }
+      });
+    }
+    /// Besides the pairs.
+    static constexpr std::size_t bytes_per_segment = sizeof(std::int64_t);
+  };
+
   /// The link(s, s', i, j) of propagation over a Transfer.
   struct TransferLink {
     decltype(std::declval<const Scn&>().bsdf()) bsdf;
@@ -652,6 +697,16 @@ class SegmentFiltering {
       const auto& e = transfer.ending[transfer.ending_record.empty() ? i : transfer.ending_record[i]];
       const auto& w = transfer.starting_direction[transfer.starting_record.empty() ? j : transfer.starting_record[j]];
       return bsdf.eval(BsdfQuery<T>{e.y, e.outgoing, w, Transport::radiance}) * e.chain;
+    }
+  };
+
+  /// A TransferLink that reads the pairs a PairCache holds.
+  struct CachedTransferLink {
+    TransferLink link;
+    const PairCache& cache;
+    S operator()(std::uint32_t s, std::uint32_t sp, std::uint32_t i, std::uint32_t j) const noexcept {
+      const std::int64_t r = cache.row[i];
+      return r != PairCache::no_row ? cache.value[std::size_t(r + j)] : link(s, sp, i, j);
     }
   };
 
@@ -669,7 +724,11 @@ class SegmentFiltering {
     Transfer transfer;
     transfer.build(pool, clustering, factorised, parallel_for);
     const TransferLink link{scene.bsdf(), transfer};
-    const PropagationInputs<S, TransferLink> inputs{clustering, pool.emitted, weighted_geometry, link, diffuse, factorised};
+    PairCache cache;
+    cache.build(link, clustering, factorised, options_.transfer_cache_bytes, parallel_for);
+    stats.transfer_cache_bytes = cache.value.size() * sizeof(S);
+    const CachedTransferLink cached{link, cache};
+    const PropagationInputs<S, CachedTransferLink> inputs{clustering, pool.emitted, weighted_geometry, cached, diffuse, factorised};
     PropagationWorkspace<S> workspace;
     propagate(inputs, iterations, radiance, workspace, parallel_for);
   }
