@@ -41,6 +41,13 @@
 //    points varies (disks overlap, so the weights of a junction's candidates sum to one only in
 //    expectation under a uniform density; voxel clusters partition, so they sum to one
 //    exactly): +2.0 % / +0.8 % for MVF at r = 0.28 / 0.14 in the sphere furnace.
+//  - Light-born chains leave area lights only: through a mirror, a point light's or the sun's
+//    chain has no density in area x solid angle at x that a local computation gives (the
+//    mirror's curvature enters), and no camera technique can draw it, so those caustics
+//    (SmallVCM's boxes 0 and 2) are missing from PhF and BDPF.
+//  - Delta-lobe selection probabilities are left out of every density of a chain: exact when
+//    both sides select a reflection with the same probability (mirrors; Fresnel-selected
+//    dielectric reflection, since the angle of incidence is the angle of reflection).
 //  - On SmallVCM's box 1 the glossy floor drifts brighter than PT as the voxel shrinks at
 //    beta = 0.25 (+7.6 % +- 1.4 % at half the default voxel), not at beta = 2; not explained yet.
 // Beyond the paper: a cluster whose camera (light) technique points are all Lambertian with
