@@ -44,7 +44,7 @@
 //  - Light-born chains leave area lights only: through a mirror, a point light's or the sun's
 //    chain has no density in area x solid angle at x that a local computation gives (the
 //    mirror's curvature enters), and no camera technique can draw it, so those caustics
-//    (SmallVCM's boxes 0 and 2) are missing from PhF and BDPF.
+//    (SmallVCM's boxes 0 and 2) are missing from MVF, PhF and BDPF.
 //  - Delta-lobe selection probabilities are left out of every density of a chain: exact when
 //    both sides select a reflection with the same probability (mirrors; Fresnel-selected
 //    dielectric reflection, since the angle of incidence is the angle of reflection).
