@@ -7,7 +7,9 @@
 //  - MMIS denominators + one iteration against cluster occupancy, factorised or not;
 //  - bytes per segment (counter);
 //  - the naive recursive MMIS estimator (N39) against propagation at depth 5 on one pool
-//    (target: propagation >= 1000x faster).
+//    (target: propagation >= 1000x faster);
+//  - Clustering::build on pools of 2e4 .. 2e6 segments: std::sort against the radix sort,
+//    serial and on two threads.
 //   build/bench/bench_propagation_propagation_bench
 #include <segpath/algorithms/segment_filtering.hpp>
 #include <segpath/estimators/recursive_mmis.hpp>
@@ -19,6 +21,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <thread>
 #include <vector>
 
 namespace {
@@ -175,6 +178,46 @@ void BM_naive_vs_propagation(benchmark::State& state) {
   state.SetLabel(naive ? "naive recursion (N39)" : "propagation");
 }
 BENCHMARK(BM_naive_vs_propagation)->Arg(1)->Arg(0)->Unit(benchmark::kMicrosecond);
+
+/// Two threads, odd and even indices (a std::thread per call).
+struct TwoThreads {
+  template <class Body>
+  void operator()(std::size_t n, Body&& body) const {
+    std::thread other([&] {
+      for (std::size_t i = 1; i < n; i += 2) body(i);
+    });
+    for (std::size_t i = 0; i < n; i += 2) body(i);
+    other.join();
+  }
+};
+
+void BM_clustering_build(benchmark::State& state) {
+  // Voxel size ~ 4 pixel footprints, as in BDPF; range(1): 0 std::sort, 1 radix; range(2): threads.
+  const std::uint32_t side = side_for(double(state.range(0)));
+  const Slab scene(side);
+  const Filter filter(options(false));
+  Filter::Pool pool;
+  filter.build_pool(scene, 1, pool, SerialFor{});
+  const auto grid = filter.grid(0.6 * 4.0 / side, 1);
+  Clustering<T> clustering;
+  clustering.force_comparison_sort(state.range(1) == 0);
+  const bool two_threads = state.range(2) == 2;
+  for (auto _ : state) {
+    if (two_threads)
+      clustering.build(grid, std::span<const Segment<T>>(pool.segments), Filter::canonical_map(scene), TwoThreads{});
+    else
+      clustering.build(grid, std::span<const Segment<T>>(pool.segments), Filter::canonical_map(scene), SerialFor{});
+    benchmark::DoNotOptimize(clustering.clusters().data());
+  }
+  state.counters["segments"] = double(pool.size());
+  state.counters["per_cluster"] = double(pool.size()) / double(clustering.clusters().size());
+  state.SetLabel(std::string(clustering.last_sort() == EndpointSort::radix ? "radix" : "std::sort") +
+                 (two_threads ? ", 2 threads" : ", serial"));
+}
+BENCHMARK(BM_clustering_build)
+    ->ArgsProduct({{20000, 200000, 2000000}, {0, 1}, {1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 /// Console output plus the derived figures: the log-log slope of time against segments, and
 /// the naive / propagation ratio.

@@ -1,12 +1,93 @@
 // Voxel keys, the voxel kernel's clipped-plane area, and clusters as runs of equal keys.
 #include <segpath/propagation/clustering.hpp>
 
+#include <algorithm>
 #include <map>
+#include <thread>
 #include <vector>
 
 #include "support/catch.hpp"
 
 using namespace segpath;
+
+namespace {
+
+struct TwoThreads {
+  template <class Body>
+  void operator()(std::size_t n, Body&& body) const {
+    std::thread other([&] {
+      for (std::size_t i = 1; i < n; i += 2) body(i);
+    });
+    for (std::size_t i = 0; i < n; i += 2) body(i);
+    other.join();
+  }
+};
+
+/// A random pool: positions in offset + [-extent, extent]^3 with any of the six normal bins, a
+/// fraction of non-surface ends, and a fraction of ends copied from earlier segments (equal keys).
+template <Real T>
+std::vector<Segment<T>> random_pool(std::size_t n, T offset, T extent, double non_surface, double duplicate,
+                                    std::uint64_t seed) {
+  Pcg32 rng(seed, 3);
+  std::vector<Segment<T>> segments;
+  auto point = [&]() -> SurfacePoint<T> {
+    if (rng.uniform<double>() < non_surface)
+      return rng.uniform<double>() < 0.5 ? SurfacePoint<T>::at_point({0, 0, 0}) : SurfacePoint<T>::at_infinity({0, 0, 1});
+    if (!segments.empty() && rng.uniform<double>() < duplicate) {
+      const Segment<T>& s = segments[std::min(segments.size() - 1, std::size_t(rng.uniform<double>() * double(segments.size())))];
+      return rng.uniform<double>() < 0.5 ? s.x : s.y;
+    }
+    auto coordinate = [&] { return offset + extent * (T(2) * rng.uniform<T>() - T(1)); };
+    Vec3<T> normal(0);
+    normal[int(rng.uniform<double>() * 3) % 3] = rng.uniform<double>() < 0.5 ? T(1) : T(-1);
+    return SurfacePoint<T>::on_surface({coordinate(), coordinate(), coordinate()}, normal);
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    const SurfacePoint<T> x = point();
+    segments.push_back({x, point()});
+  }
+  return segments;
+}
+
+/// The refs written out: every valid key, std::sort by (key, end, segment).
+template <Real T>
+std::vector<EndpointRef> reference_refs(const VoxelGrid<T>& grid, const std::vector<Segment<T>>& segments) {
+  std::vector<EndpointRef> refs;
+  for (std::uint32_t i = 0; i < segments.size(); ++i) {
+    if (const auto k = grid.key(segments[i].x); k.valid) refs.push_back({k.key, i, 0});
+    if (const auto k = grid.key(segments[i].y); k.valid) refs.push_back({k.key, i, 1});
+  }
+  std::sort(refs.begin(), refs.end());
+  return refs;
+}
+
+/// Everything a clustering exposes, compared exactly (kernels bit for bit).
+template <Real T>
+void check_same(const Clustering<T>& a, const Clustering<T>& b, std::size_t segments) {
+  REQUIRE(a.refs().size() == b.refs().size());
+  std::size_t ref_mismatches = 0;
+  for (std::size_t r = 0; r < a.refs().size(); ++r) {
+    const EndpointRef &p = a.refs()[r], &q = b.refs()[r];
+    ref_mismatches += !(p.key == q.key && p.segment == q.segment && p.end == q.end);
+  }
+  CHECK(ref_mismatches == 0);
+  REQUIRE(a.clusters().size() == b.clusters().size());
+  std::size_t cluster_mismatches = 0;
+  for (std::size_t c = 0; c < a.clusters().size(); ++c) {
+    const Cluster<T>&p = a.clusters()[c], &q = b.clusters()[c];
+    cluster_mismatches += !(p.begin == q.begin && p.middle == q.middle && p.end == q.end && p.slot == q.slot && p.kernel == q.kernel);
+  }
+  CHECK(cluster_mismatches == 0);
+  CHECK(std::ranges::equal(a.starting_segments(), b.starting_segments()));
+  CHECK(std::ranges::equal(a.ending_segments(), b.ending_segments()));
+  std::size_t segment_mismatches = 0;
+  for (std::uint32_t s = 0; s < segments; ++s)
+    segment_mismatches += !(a.cluster_of_x(s) == b.cluster_of_x(s) && a.cluster_of_y(s) == b.cluster_of_y(s) &&
+                            a.ending_slot_of(s) == b.ending_slot_of(s));
+  CHECK(segment_mismatches == 0);
+}
+
+}  // namespace
 
 TEMPLATE_TEST_CASE("plane clipped to a box: known areas", "[propagation]", float, double) {
   using T = TestType;
@@ -145,4 +226,80 @@ TEMPLATE_TEST_CASE("slots number each end's refs in cluster order", "[propagatio
     CHECK((clustering.ending_slot_of(s) == no_cluster) == (seen[s] == 0));
     CHECK((clustering.ending_slot_of(s) == no_cluster) == (clustering.cluster_of_y(s) == no_cluster));
   }
+}
+
+TEMPLATE_TEST_CASE("radix-sorted clusters equal std::sort's, with 1 or 2 threads", "[propagation]", float, double) {
+  using T = TestType;
+  struct Case {
+    const char* name;
+    std::size_t n;
+    T offset, extent, cell;
+    double non_surface, duplicate;
+    EndpointSort sort;
+  };
+  // Code bits: 3 * ceil(log2(range / cell)) + 4; the segment goes in the code's low bits when the
+  // sum with log2(n) fits in 64 bits, beside it otherwise; beyond 64 code bits, std::sort.
+  const Case cases[] = {
+      {"negative coordinates, 11-bit digits, several chunks", 40000, T(-7), T(3), T(0.05), 0.1, 0.2, EndpointSort::radix},
+      {"8-bit digits, many duplicates", 3000, T(0), T(1), T(0.25), 0.05, 0.6, EndpointSort::radix},
+      {"one voxel: only the normal bin and the end vary", 2000, T(0.75), T(0.1), T(1), 0.1, 0.0, EndpointSort::radix},
+      {"codes beside the segments (52 + 13 bits)", 5000, T(0), T(32000), T(1), 0.1, 0.3, EndpointSort::radix},
+      {"huge ranges: the std::sort fallback", 5000, T(0), T(4e8), T(1), 0.1, 0.3, EndpointSort::comparison},
+      {"no surface ends", 100, T(0), T(1), T(0.1), 1.0, 0.0, EndpointSort::radix},
+      {"empty pool", 0, T(0), T(1), T(0.1), 0.0, 0.0, EndpointSort::radix},
+  };
+  for (const Case& k : cases) {
+    SECTION(k.name) {
+      const auto segments = random_pool<T>(k.n, k.offset, k.extent, k.non_surface, k.duplicate, 11 + k.n);
+      const VoxelGrid<T> grid(k.cell, Vec3<T>(T(0.3), T(0.6), T(0.1)));
+      Clustering<T> serial, threaded, comparison;
+      serial.build(grid, segments);
+      threaded.build(grid, std::span<const Segment<T>>(segments), [](const SurfacePoint<T>& p) { return p.position; },
+                     TwoThreads{});
+      comparison.force_comparison_sort(true);
+      comparison.build(grid, segments);
+      CHECK(serial.last_sort() == k.sort);
+      CHECK(threaded.last_sort() == k.sort);
+      CHECK(comparison.last_sort() == EndpointSort::comparison);
+      if (k.cell == T(1) && k.extent < T(1)) CHECK(serial.clusters().size() <= 6);
+
+      const auto expected = reference_refs(grid, segments);
+      REQUIRE(serial.refs().size() == expected.size());
+      std::size_t mismatches = 0;
+      for (std::size_t r = 0; r < expected.size(); ++r) {
+        const EndpointRef &p = serial.refs()[r], &q = expected[r];
+        mismatches += !(p.key == q.key && p.segment == q.segment && p.end == q.end);
+      }
+      CHECK(mismatches == 0);
+      check_same(serial, comparison, segments.size());
+      check_same(serial, threaded, segments.size());
+      // A rebuild reuses the buffers and gives the same result.
+      threaded.build(grid, segments);
+      check_same(serial, threaded, segments.size());
+
+      // The order within a key is exercised: some cluster has two refs of the same end.
+      if (k.duplicate > 0) {
+        bool shared = false;
+        for (const auto& c : serial.clusters()) shared = shared || c.starting_count() > 1 || c.ending_count() > 1;
+        CHECK(shared);
+      }
+    }
+  }
+}
+
+TEST_CASE("the radix order is checked: an order without the end tie-break is rejected", "[propagation]") {
+  const auto segments = random_pool<double>(3000, 0.0, 1.0, 0.05, 0.6, 5);
+  const VoxelGrid<double> grid(0.25);
+  Clustering<double> clustering;
+  clustering.build(grid, segments);
+  // Sorting by key alone, stably, keeps generation order (x and y ends interleaved): not the
+  // clustering's order, which puts every cluster's starting refs first.
+  auto wrong = reference_refs(grid, segments);
+  std::sort(wrong.begin(), wrong.end(), [](const EndpointRef& a, const EndpointRef& b) {
+    return a.key != b.key ? a.key < b.key : a.segment < b.segment;
+  });
+  std::size_t mismatches = 0;
+  for (std::size_t r = 0; r < wrong.size(); ++r)
+    mismatches += !(clustering.refs()[r].segment == wrong[r].segment && clustering.refs()[r].end == wrong[r].end);
+  CHECK(mismatches > 0);
 }

@@ -238,7 +238,7 @@ class SegmentFiltering {
     std::size_t support_bytes = 0, propagation_bytes = 0;
     if (options_.support == FilteringSupport::voxel) {
       Clustering<T> clustering;
-      cluster(scene, grid(cell, iteration), pool, clustering);
+      cluster(scene, grid(cell, iteration), pool, clustering, parallel_for);
       stats.clusters = clustering.clusters().size();
       compute_densities(scene, pool, clustering, stats, parallel_for);
       propagate_pool(scene, pool, clustering, iterations, radiance, weighted_geometry, stats, parallel_for);
@@ -741,8 +741,10 @@ class SegmentFiltering {
   }
 
   /// Clusters a pool's endpoints on `grid` (by canonical position where the scene has one).
-  void cluster(const Scn& scene, const VoxelGrid<T>& grid, const Pool& pool, Clustering<T>& clustering) const {
-    clustering.build(grid, pool.segments, canonical_map(scene));
+  template <ParallelFor P = SerialFor>
+  void cluster(const Scn& scene, const VoxelGrid<T>& grid, const Pool& pool, Clustering<T>& clustering,
+               const P& parallel_for = {}) const {
+    clustering.build(grid, pool.segments, canonical_map(scene), parallel_for);
   }
 
   /// The disk support's junctions of a pool (by canonical position where the scene has one).

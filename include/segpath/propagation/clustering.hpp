@@ -5,13 +5,20 @@
 // propagation can keep what it needs in cluster order and read it in order.
 #pragma once
 
+#include "segpath/core/parallel.hpp"
 #include "segpath/core/segment.hpp"
 #include "segpath/propagation/plane_box_area.hpp"
 #include "segpath/propagation/voxel_grid.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cstdint>
+#include <limits>
+#include <memory>
 #include <span>
+#include <stdexcept>
+#include <string>
+#include <utility>
 #include <vector>
 
 namespace segpath {
@@ -29,6 +36,12 @@ struct EndpointRef {
     if (a.end != b.end) return a.end < b.end;
     return a.segment < b.segment;
   }
+};
+
+/// How Clustering::build orders the refs; both give the same order, (key, end, segment).
+enum class EndpointSort : std::uint8_t {
+  radix,      ///< LSD radix sort of packed 64-bit codes (the default when the key ranges fit)
+  comparison  ///< std::sort on EndpointRef::operator< (forced, or the fallback)
 };
 
 /// A cluster: refs[begin, middle) are segments starting in it, refs[middle, end) segments
@@ -50,8 +63,46 @@ struct Cluster {
   [[nodiscard]] std::uint32_t ending_slot(std::uint32_t r) const noexcept { return r - slot - (middle - begin); }
 };
 
+namespace detail {
+
+/// Stable LSD radix sort of `data` by bits [lo, lo + bits) of word(e), ping-ponging with
+/// `scratch` (same size); digits of at most 11 bits, passes whose digit is constant skipped.
+/// Returns the span (data or scratch) that holds the sorted sequence.
+template <class E, class Word>
+std::span<E> radix_sort(std::span<E> data, std::span<E> scratch, unsigned lo, unsigned bits, const Word& word,
+                        std::vector<std::uint32_t>& counts) {
+  const std::size_t n = data.size();
+  if (bits == 0 || n < 2) return data;
+  const unsigned max_width = n < (std::size_t(1) << 16) ? 8 : 11;
+  const unsigned passes = (bits + max_width - 1) / max_width;
+  const unsigned width = (bits + passes - 1) / passes;
+  const std::size_t radix = std::size_t(1) << width;
+  const std::uint64_t mask = radix - 1;
+  counts.assign(passes * radix, 0);
+  for (const E& e : data) {
+    std::uint64_t w = word(e) >> lo;
+    for (unsigned p = 0; p < passes; ++p, w >>= width) ++counts[p * radix + (w & mask)];
+  }
+  E* src = data.data();
+  E* dst = scratch.data();
+  for (unsigned p = 0; p < passes; ++p) {
+    const unsigned shift = lo + p * width;
+    std::uint32_t* c = counts.data() + p * radix;
+    if (c[(word(src[0]) >> shift) & mask] == n) continue;
+    std::uint32_t sum = 0;
+    for (std::size_t d = 0; d < radix; ++d) sum += std::exchange(c[d], sum);
+    for (std::size_t i = 0; i < n; ++i) dst[c[(word(src[i]) >> shift) & mask]++] = src[i];
+    std::swap(src, dst);
+  }
+  return {src, n};
+}
+
+}  // namespace detail
+
 /// The clusters of one iteration. Memory: one EndpointRef per endpoint, three ids per segment
-/// and one per slot, O(#segments). Deterministic: the sort order is a total order.
+/// and one per slot, O(#segments); during build only, two 8-byte codes per endpoint (the radix
+/// sort's, allocated once per build). Deterministic: the sort order is a total order, and the
+/// parallel steps write disjoint outputs.
 template <Real T>
 class Clustering {
  public:
@@ -61,63 +112,32 @@ class Clustering {
   /// (pinholes, points at infinity) join no cluster. `canonical` maps a point to the position
   /// its voxel key is computed from: the identity, or for periodic domains (a flat torus) the
   /// representative in the fundamental cell, so that all images of a point share a cluster.
-  template <class Canonical>
-  void build(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments, const Canonical& canonical) {
-    refs_.clear();
+  /// Keys and clusters are computed on `parallel_for`; the result does not depend on it.
+  template <class Canonical, ParallelFor P = SerialFor>
+  void build(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments, const Canonical& canonical,
+             const P& parallel_for = {}) {
+    const std::size_t n = segments.size();
+    if (n > std::size_t(std::numeric_limits<std::uint32_t>::max() / 2))
+      throw std::invalid_argument("segpath::Clustering: too many segments for 32-bit refs: " + std::to_string(n));
     clusters_.clear();
-    cluster_of_x_.assign(segments.size(), no_cluster);
-    cluster_of_y_.assign(segments.size(), no_cluster);
-    ending_slot_of_.assign(segments.size(), no_cluster);
-    refs_.reserve(2 * segments.size());
-    auto key_of = [&](const SurfacePoint<T>& p) {
-      SurfacePoint<T> q = p;
-      q.position = canonical(p);
-      return grid.key(q);
-    };
-    for (std::uint32_t i = 0; i < segments.size(); ++i) {
-      if (const auto kx = key_of(segments[i].x); kx.valid) refs_.push_back({kx.key, i, 0});
-      if (const auto ky = key_of(segments[i].y); ky.valid) refs_.push_back({ky.key, i, 1});
-    }
-    std::sort(refs_.begin(), refs_.end());
-    std::uint32_t slot = 0;
-    for (std::uint32_t b = 0; b < refs_.size();) {
-      std::uint32_t e = b, m = b;
-      while (e < refs_.size() && refs_[e].key == refs_[b].key) {
-        if (refs_[e].end == 0) m = e + 1;
-        ++e;
-      }
-      const auto id = static_cast<std::uint32_t>(clusters_.size());
-      Cluster<T> c{b, m, e, slot, T(0)};
-      slot += m - b;
-      Vec3<T> mean_position(0), mean_normal(0);
-      for (std::uint32_t r = b; r < e; ++r) {
-        const Segment<T>& s = segments[refs_[r].segment];
-        const SurfacePoint<T>& p = refs_[r].end == 0 ? s.x : s.y;
-        mean_position += canonical(p);
-        mean_normal += p.normal;
-        (refs_[r].end == 0 ? cluster_of_x_ : cluster_of_y_)[refs_[r].segment] = id;
-      }
-      mean_position /= T(e - b);
-      const auto box = grid.bounds(refs_[b].key);
-      const T area = plane_box_area(mean_position, mean_normal, box[0], box[1]);
-      c.kernel = area > T(0) ? T(1) / area : T(0);
-      clusters_.push_back(c);
-      b = e;
-    }
-    starting_segment_.resize(starting_slot_count());
-    ending_segment_.resize(ending_slot_count());
-    for (const Cluster<T>& c : clusters_) {
-      for (std::uint32_t r = c.begin; r < c.middle; ++r) starting_segment_[c.starting_slot(r)] = refs_[r].segment;
-      for (std::uint32_t r = c.middle; r < c.end; ++r) {
-        ending_segment_[c.ending_slot(r)] = refs_[r].segment;
-        ending_slot_of_[refs_[r].segment] = c.ending_slot(r);
-      }
-    }
+    cluster_of_x_.assign(n, no_cluster);
+    cluster_of_y_.assign(n, no_cluster);
+    ending_slot_of_.assign(n, no_cluster);
+    compute_keys(grid, segments, canonical, parallel_for);
+    sort_refs(parallel_for);
+    cut_clusters();
+    fill_clusters(grid, segments, canonical, parallel_for);
   }
 
   void build(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments) {
     build(grid, segments, [](const SurfacePoint<T>& p) { return p.position; });
   }
+
+  /// Forces std::sort (for comparisons); otherwise the radix sort runs whenever the packed
+  /// codes fit in 64 bits.
+  void force_comparison_sort(bool on) noexcept { force_comparison_ = on; }
+  /// The sort the last build ran.
+  [[nodiscard]] EndpointSort last_sort() const noexcept { return last_sort_; }
 
   [[nodiscard]] std::span<const Cluster<T>> clusters() const noexcept { return clusters_; }
   [[nodiscard]] std::span<const EndpointRef> refs() const noexcept { return refs_; }
@@ -146,10 +166,208 @@ class Clustering {
   }
 
  private:
+  /// Segments per task when computing keys, refs per task when decoding, clusters per task.
+  static constexpr std::size_t segment_chunk = 16384, ref_chunk = 32768, cluster_chunk = 8192;
+  static constexpr std::uint8_t invalid_end = 2;
+
+  /// A chunk's key bounds and valid-ref count, then its first ref.
+  struct ChunkKeys {
+    std::int32_t lo[3] = {std::numeric_limits<std::int32_t>::max(), std::numeric_limits<std::int32_t>::max(),
+                          std::numeric_limits<std::int32_t>::max()};
+    std::int32_t hi[3] = {std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::min(),
+                          std::numeric_limits<std::int32_t>::min()};
+    std::size_t count = 0, offset = 0;
+  };
+  /// A code with its segment beside it, when code and segment do not fit in 64 bits together.
+  struct WideCode {
+    std::uint64_t code;
+    std::uint32_t segment;
+  };
+
+  /// All 2n endpoint keys into refs_ (invalid ones marked), in parallel by chunks of segments.
+  template <class Canonical, class P>
+  void compute_keys(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments, const Canonical& canonical,
+                    const P& parallel_for) {
+    const std::size_t n = segments.size();
+    refs_.resize(2 * n);
+    chunks_.assign((n + segment_chunk - 1) / segment_chunk, ChunkKeys{});
+    parallel_for(chunks_.size(), [&](std::size_t c) {
+      ChunkKeys& k = chunks_[c];
+      const std::size_t e = std::min(n, (c + 1) * segment_chunk);
+      for (std::size_t i = c * segment_chunk; i < e; ++i) {
+        for (std::uint8_t end = 0; end < 2; ++end) {
+          const SurfacePoint<T>& p = end == 0 ? segments[i].x : segments[i].y;
+          SurfacePoint<T> q = p;
+          q.position = canonical(p);
+          const auto r = grid.key(q);
+          refs_[2 * i + end] = {r.key, static_cast<std::uint32_t>(i), r.valid ? end : invalid_end};
+          if (!r.valid) continue;
+          ++k.count;
+          const std::int32_t v[3] = {r.key.x, r.key.y, r.key.z};
+          for (int a = 0; a < 3; ++a) k.lo[a] = std::min(k.lo[a], v[a]), k.hi[a] = std::max(k.hi[a], v[a]);
+        }
+      }
+    });
+  }
+
+  /// Sorts the valid refs by (key, end, segment): refs are in segment order, x end first, so a
+  /// stable sort on the (key, end) code keeps the segment order within equal codes.
+  template <class P>
+  void sort_refs(const P& parallel_for) {
+    ChunkKeys all;
+    for (ChunkKeys& k : chunks_) {
+      k.offset = all.count;
+      all.count += k.count;
+      for (int a = 0; a < 3; ++a) all.lo[a] = std::min(all.lo[a], k.lo[a]), all.hi[a] = std::max(all.hi[a], k.hi[a]);
+    }
+    unsigned axis_bits[3] = {0, 0, 0};
+    for (int a = 0; a < 3; ++a)
+      if (all.count > 0) axis_bits[a] = unsigned(std::bit_width(std::uint64_t(std::int64_t(all.hi[a]) - all.lo[a])));
+    // Code, most significant first: x - x_min, y - y_min, z - z_min, normal bin (3 bits), end.
+    const unsigned code_bits = axis_bits[0] + axis_bits[1] + axis_bits[2] + 4;
+    const unsigned segment_bits = unsigned(std::bit_width(std::uint64_t(cluster_of_x_.size())));
+    last_sort_ = force_comparison_ || code_bits > 64 ? EndpointSort::comparison : EndpointSort::radix;
+    if (last_sort_ == EndpointSort::comparison) {
+      compact_refs();
+      std::sort(refs_.begin(), refs_.end());
+      return;
+    }
+    const unsigned shift_z = 4, shift_y = shift_z + axis_bits[2], shift_x = shift_y + axis_bits[1];
+    auto code_of = [&](const EndpointRef& r) {
+      return std::uint64_t(std::uint32_t(r.key.x - all.lo[0])) << shift_x |
+             std::uint64_t(std::uint32_t(r.key.y - all.lo[1])) << shift_y |
+             std::uint64_t(std::uint32_t(r.key.z - all.lo[2])) << shift_z | std::uint64_t(r.key.normal_bin) << 1 | r.end;
+    };
+    auto ref_of = [&](std::uint64_t code, std::uint32_t segment) {
+      auto field = [&](unsigned shift, unsigned bits) {
+        return std::int32_t(std::int64_t(code >> shift & ((std::uint64_t(1) << bits) - 1)));
+      };
+      VoxelKey key{std::int32_t(std::int64_t(all.lo[0]) + field(shift_x, axis_bits[0])),
+                   std::int32_t(std::int64_t(all.lo[1]) + field(shift_y, axis_bits[1])),
+                   std::int32_t(std::int64_t(all.lo[2]) + field(shift_z, axis_bits[2])),
+                   std::uint8_t(code >> 1 & 7u)};
+      return EndpointRef{key, segment, std::uint8_t(code & 1u)};
+    };
+    const std::size_t count = all.count;
+    const std::size_t decode_chunks = (count + ref_chunk - 1) / ref_chunk;
+    if (code_bits + segment_bits <= 64) {
+      // The segment in the low bits: one 64-bit word per ref, sorted on its code bits.
+      const auto codes = std::make_unique_for_overwrite<std::uint64_t[]>(count);
+      const auto scratch = std::make_unique_for_overwrite<std::uint64_t[]>(count);
+      gather_codes(
+          parallel_for, [&](const EndpointRef& r) { return code_of(r) << segment_bits | r.segment; }, codes.get());
+      const auto sorted =
+          detail::radix_sort(std::span<std::uint64_t>(codes.get(), count), std::span<std::uint64_t>(scratch.get(), count),
+                             segment_bits, code_bits, [](std::uint64_t w) { return w; }, counts_);
+      const std::uint64_t segment_mask = (std::uint64_t(1) << segment_bits) - 1;
+      refs_.resize(count);
+      parallel_for(decode_chunks, [&](std::size_t c) {
+        const std::size_t e = std::min(count, (c + 1) * ref_chunk);
+        for (std::size_t i = c * ref_chunk; i < e; ++i)
+          refs_[i] = ref_of(sorted[i] >> segment_bits, std::uint32_t(sorted[i] & segment_mask));
+      });
+    } else {
+      const auto codes = std::make_unique_for_overwrite<WideCode[]>(count);
+      const auto scratch = std::make_unique_for_overwrite<WideCode[]>(count);
+      gather_codes(parallel_for, [&](const EndpointRef& r) { return WideCode{code_of(r), r.segment}; }, codes.get());
+      const auto sorted =
+          detail::radix_sort(std::span<WideCode>(codes.get(), count), std::span<WideCode>(scratch.get(), count), 0,
+                             code_bits, [](const WideCode& w) { return w.code; }, counts_);
+      refs_.resize(count);
+      parallel_for(decode_chunks, [&](std::size_t c) {
+        const std::size_t e = std::min(count, (c + 1) * ref_chunk);
+        for (std::size_t i = c * ref_chunk; i < e; ++i) refs_[i] = ref_of(sorted[i].code, sorted[i].segment);
+      });
+    }
+  }
+
+  /// The valid refs' codes, in ref order, each chunk at its offset.
+  template <class P, class Encode, class Code>
+  void gather_codes(const P& parallel_for, const Encode& encode, Code* codes) {
+    parallel_for(chunks_.size(), [&](std::size_t c) {
+      std::size_t o = chunks_[c].offset;
+      const std::size_t e = std::min(refs_.size(), 2 * (c + 1) * segment_chunk);
+      for (std::size_t i = 2 * c * segment_chunk; i < e; ++i)
+        if (refs_[i].end != invalid_end) codes[o++] = encode(refs_[i]);
+    });
+  }
+
+  /// Drops the invalid refs, keeping the order.
+  void compact_refs() noexcept {
+    std::size_t o = 0;
+    for (std::size_t i = 0; i < refs_.size(); ++i)
+      if (refs_[i].end != invalid_end) refs_[o++] = refs_[i];
+    refs_.resize(o);
+  }
+
+  /// The runs of equal keys, their middles and starting slots.
+  void cut_clusters() {
+    std::uint32_t slot = 0;
+    const auto size = static_cast<std::uint32_t>(refs_.size());
+    for (std::uint32_t b = 0; b < size;) {
+      std::uint32_t e = b, m = b;
+      while (e < size && refs_[e].key == refs_[b].key) {
+        if (refs_[e].end == 0) m = e + 1;
+        ++e;
+      }
+      clusters_.push_back({b, m, e, slot, T(0)});
+      slot += m - b;
+      b = e;
+    }
+  }
+
+  /// Per cluster, in parallel (disjoint outputs): the kernel from the mean plane in the voxel
+  /// (SPEC 1.2), the cluster of every end and the segment of every slot.
+  template <class Canonical, class P>
+  void fill_clusters(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments, const Canonical& canonical,
+                     const P& parallel_for) {
+    starting_segment_.resize(starting_slot_count());
+    ending_segment_.resize(ending_slot_count());
+    parallel_for((clusters_.size() + cluster_chunk - 1) / cluster_chunk, [&](std::size_t chunk) {
+      const std::size_t last = std::min(clusters_.size(), (chunk + 1) * cluster_chunk);
+      for (std::size_t id = chunk * cluster_chunk; id < last; ++id) {
+        Cluster<T>& c = clusters_[id];
+        Vec3<T> mean_position(0), mean_normal(0);
+        for (std::uint32_t r = c.begin; r < c.end; ++r) {
+          if (r + prefetch_distance < refs_.size()) prefetch_end(segments, refs_[r + prefetch_distance]);
+          const Segment<T>& s = segments[refs_[r].segment];
+          const SurfacePoint<T>& p = refs_[r].end == 0 ? s.x : s.y;
+          mean_position += canonical(p);
+          mean_normal += p.normal;
+          (refs_[r].end == 0 ? cluster_of_x_ : cluster_of_y_)[refs_[r].segment] = static_cast<std::uint32_t>(id);
+        }
+        mean_position /= T(c.end - c.begin);
+        const auto box = grid.bounds(refs_[c.begin].key);
+        const T area = plane_box_area(mean_position, mean_normal, box[0], box[1]);
+        c.kernel = area > T(0) ? T(1) / area : T(0);
+        for (std::uint32_t r = c.begin; r < c.middle; ++r) starting_segment_[c.starting_slot(r)] = refs_[r].segment;
+        for (std::uint32_t r = c.middle; r < c.end; ++r) {
+          ending_segment_[c.ending_slot(r)] = refs_[r].segment;
+          ending_slot_of_[refs_[r].segment] = c.ending_slot(r);
+        }
+      }
+    });
+  }
+
+  /// Refs are in key order, their segments scattered: their ends are fetched ahead.
+  static constexpr std::size_t prefetch_distance = 16;
+  static void prefetch_end(std::span<const Segment<T>> segments, const EndpointRef& r) noexcept {
+#if defined(__GNUC__) || defined(__clang__)
+    const Segment<T>& s = segments[r.segment];
+    __builtin_prefetch(r.end == 0 ? &s.x : &s.y);
+#else
+    (void)segments, (void)r;
+#endif
+  }
+
   std::vector<EndpointRef> refs_;
   std::vector<Cluster<T>> clusters_;
   std::vector<std::uint32_t> cluster_of_x_, cluster_of_y_, ending_slot_of_;
   std::vector<std::uint32_t> starting_segment_, ending_segment_;
+  std::vector<ChunkKeys> chunks_;
+  std::vector<std::uint32_t> counts_;
+  bool force_comparison_ = false;
+  EndpointSort last_sort_ = EndpointSort::radix;
 };
 
 }  // namespace segpath
