@@ -57,6 +57,8 @@ struct MethodOptions {
   segpath::FilteringSupport support = segpath::FilteringSupport::voxel;  ///< filtering: junction support
   bool bridges = false;          ///< bdpf: add bridge segments
   bool next_event = false;       ///< mvf, bdpf: add next-event segments
+  /// bdpf: chain weighting, path-conditioned (unbiased) or the paper's prod 1 / D
+  segpath::FilteringWeighting weighting = segpath::FilteringWeighting::path_conditioned;
 };
 
 /// The emitter of a RenderScene by reference: PathTracer copies scene.emitter() once per
@@ -381,6 +383,7 @@ class FilteringMethod {
     f.support = o.support;
     f.bridges = o.bridges;
     f.next_event = o.next_event && Mode != segpath::FilteringMode::phf;
+    f.weighting = o.weighting;
     return f;
   }
   segpath::SegmentFiltering<ThreadCountingScene> filter_;

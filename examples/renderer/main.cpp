@@ -51,6 +51,7 @@ struct Options {
   std::string support = "voxel";
   bool bridges = false;
   bool next_event = false;
+  std::string weighting = "path";
   std::vector<std::string> out;
   std::optional<std::string> reference;
   // OBJ scenes only: a look-at camera ("x,y,z" vectors).
@@ -182,6 +183,7 @@ int run(const Options& o) {
   mo.support = o.support == "disk" ? segpath::FilteringSupport::disk : segpath::FilteringSupport::voxel;
   mo.bridges = o.bridges;
   mo.next_event = o.next_event;
+  mo.weighting = o.weighting == "paper" ? segpath::FilteringWeighting::paper : segpath::FilteringWeighting::path_conditioned;
   auto method = renderer::make_method(o.method, mo);
   if (!method) throw std::runtime_error("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
   const renderer::RenderScene scene = load_scene(o);
@@ -282,6 +284,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--bridges", o.bridges, "bdpf: also join camera and light paths by bridge segments");
   app.add_flag("--next-event", o.next_event, "mvf/bdpf: also draw a segment to a light point from every camera path vertex");
+  app.add_option("--weighting", o.weighting,
+                 "bdpf: chain weighting, path (path-conditioned, unbiased) or paper (prod 1 / D, biased)")
+      ->check(CLI::IsMember({"path", "paper"}))
+      ->capture_default_str();
 #if SEGPATH_RENDER_HAS_OBJ
   app.add_option("--camera-position", o.camera_position, "OBJ scenes: camera position x,y,z")->capture_default_str();
   app.add_option("--camera-target", o.camera_target, "OBJ scenes: point the camera looks at, x,y,z")->capture_default_str();

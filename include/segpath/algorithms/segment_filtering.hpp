@@ -25,6 +25,13 @@
 //     light ends (point lights, the sun) only light sampling can produce: D = N_L p_L;
 //  5. propagation over clusters, max_length - 1 Jacobi iterations, from L_e;
 //  6. gather: pixel p += W G L(s_1) / D(s_1) over its sensor segments.
+// BDPF weights a chain path-conditioned by default (FilteringWeighting): the paper's prod_i
+// 1 / D(s_i) is biased where camera and light technique samples share clusters (D(s_i) counts
+// a path neighbour as a technique sample only when it was born on the matching side); the
+// path-conditioned weight is a forward-Markov MIS over the chain's side patterns (derivation in
+// propagation/path_conditioned.hpp), with D split into its light side D_l (light start and
+// light predecessors, light_side()) and the rest, and one pair density q_l(s | s')
+// (light_pair_density()). Steps 5-6 then propagate four values per segment.
 // Options beyond the paper's defaults: the disk support (every start within r of an end joins
 // it, K = 1 / (pi r^2), pi r^2 = h^2) instead of voxel clusters, and for BDPF bridge segments
 // from camera technique points to light-path starts (the bridge technique of SPEC 1.6), and for
@@ -48,8 +55,17 @@
 //  - Delta-lobe selection probabilities are left out of every density of a chain: exact when
 //    both sides select a reflection with the same probability (mirrors; Fresnel-selected
 //    dielectric reflection, since the angle of incidence is the angle of reflection).
-//  - On SmallVCM's box 1 the glossy floor drifts brighter than PT as the voxel shrinks at
-//    beta = 0.25 (+7.6 % +- 1.4 % at half the default voxel), not at beta = 2; not explained yet.
+//  - The paper's weighting (FilteringWeighting::paper) is biased by its cross terms: on
+//    SmallVCM's box 1 the glossy floor is +6.4 % +- 0.6 % brighter than PT at half the default
+//    voxel (beta = 0.25), +3.7 % in the slab furnace with 16 x 16 voxels per period; the
+//    path-conditioned weighting removes it (tests/algorithms/segment_filtering_test.cpp).
+//  - Path-conditioned weighting: left is a technique sample that is the pool successor of a
+//    chain segment without being in the chain (its presence depends on how the chain was
+//    drawn), O(1 / technique samples per cluster); bridge segments' density is taken as it is
+//    (its target count includes the path neighbours); it costs ~2.4x the paper's propagation
+//    on box 1, 1.5x its iteration (four values per segment, one more BSDF pdf per junction);
+//    it reads light path depths from the pool order (build_pool keeps light paths contiguous)
+//    and takes every segment not camera-born nor a bridge as light-born (light_side_start).
 // Beyond the paper: a cluster whose camera (light) technique points are all Lambertian with
 // one shading normal has technique densities independent of the technique sample, so its sum
 // is m p(s) (O(n) instead of O(n m)); with every ending point Lambertian with one normal, the
@@ -64,6 +80,7 @@
 #include "segpath/materials/scattering.hpp"
 #include "segpath/propagation/clustering.hpp"
 #include "segpath/propagation/disk_junctions.hpp"
+#include "segpath/propagation/path_conditioned.hpp"
 #include "segpath/propagation/propagate.hpp"
 #include "segpath/samplers/light_start.hpp"
 #include "segpath/samplers/sensor_start.hpp"
@@ -106,6 +123,19 @@ enum class FilteringSupport : std::uint8_t {
   return s == FilteringSupport::voxel ? "voxel" : "disk";
 }
 
+/// How a pooled chain is weighted (BDPF; MVF and PhF have one side past the sensor segment,
+/// where both are the same weighting).
+enum class FilteringWeighting : std::uint8_t {
+  /// prod_i r_i, each segment's denominator conditioned on the sides its path neighbours were
+  /// born on (propagation/path_conditioned.hpp): unbiased up to the kernel's own bias.
+  path_conditioned,
+  paper,  ///< prod_i 1 / D(s_i) (N39): biased where camera and light technique samples share clusters
+};
+
+[[nodiscard]] constexpr const char* to_string(FilteringWeighting w) noexcept {
+  return w == FilteringWeighting::path_conditioned ? "path" : "paper";
+}
+
 template <Real T>
 struct FilteringOptions {
   FilteringMode mode = FilteringMode::bdpf;
@@ -135,6 +165,10 @@ struct FilteringOptions {
   /// is aligned with the origin: on a periodic domain (canonical_position) whose period is a
   /// multiple of the voxel size, voxels then tile the fundamental cell exactly.
   bool jitter = true;
+  /// BDPF: the chain weighting. path_conditioned propagates four values per segment and
+  /// evaluates one light-technique density per junction (~2.4x the paper's propagation time
+  /// on box 1, 1.5x its iteration).
+  FilteringWeighting weighting = FilteringWeighting::path_conditioned;
   std::uint64_t seed = 1;
 };
 
@@ -240,20 +274,33 @@ class SegmentFiltering {
       Clustering<T> clustering;
       cluster(scene, grid(cell, iteration), pool, clustering, parallel_for);
       stats.clusters = clustering.clusters().size();
-      compute_densities(scene, pool, clustering, stats, parallel_for);
-      propagate_pool(scene, pool, clustering, iterations, radiance, weighted_geometry, stats, parallel_for);
+      LightSide side;
+      compute_densities(scene, pool, clustering, stats, parallel_for, path_conditioned() ? &side : nullptr);
       support_bytes = clustering.bytes_per_segment();
-      // Propagation: diffuse when factorising, the transfer and the workspace.
-      propagation_bytes = (options_.factorise ? sizeof(S) : 0) + Transfer::bytes_per_segment() + PairCache::bytes_per_segment +
-                          PropagationWorkspace<S>::bytes_per_segment;
+      if (path_conditioned()) {
+        propagate_conditioned_pool(scene, pool, clustering, side, iterations, radiance, weighted_geometry, stats, parallel_for);
+        propagation_bytes = conditioned_bytes_per_segment;
+      } else {
+        propagate_pool(scene, pool, clustering, iterations, radiance, weighted_geometry, stats, parallel_for);
+        // Propagation: diffuse when factorising, the transfer and the workspace.
+        propagation_bytes = (options_.factorise ? sizeof(S) : 0) + Transfer::bytes_per_segment() +
+                            PairCache<S>::bytes_per_segment + PropagationWorkspace<S>::bytes_per_segment;
+      }
     } else {
       DiskJunctions<T> junctions;
       join(scene, disk_radius(cell), pool, junctions, parallel_for);
       stats.junctions = junctions.junction_count();
       compute_densities(scene, pool, junctions, stats, parallel_for);
-      propagate_pool(scene, pool, junctions, iterations, radiance, weighted_geometry, parallel_for);
       support_bytes = junctions.bytes_per_segment();
-      propagation_bytes = sizeof(S);  // the second radiance buffer
+      if (path_conditioned()) {
+        LightSide side;
+        light_side(scene, pool, junctions, side, parallel_for);
+        propagate_conditioned_pool(scene, pool, junctions, side, iterations, radiance, weighted_geometry, stats, parallel_for);
+        propagation_bytes = conditioned_bytes_per_segment;
+      } else {
+        propagate_pool(scene, pool, junctions, iterations, radiance, weighted_geometry, parallel_for);
+        propagation_bytes = sizeof(S);  // the second radiance buffer
+      }
     }
     for (std::size_t i = 0; i < pool.size(); ++i) {
       if (!(pool.flags[i] & sensor_segment)) continue;
@@ -656,22 +703,25 @@ class SegmentFiltering {
     }
   };
 
-  /// f_r(s, s') chain(s) per (ending, starting) slot pair of the clusters that are not
-  /// factorised, evaluated once per pool, cluster by cluster in order while they fit in a byte
-  /// budget (a cluster that does not fit is skipped, later smaller ones may still fit).
+  /// What propagation evaluates per (ending slot i, starting slot j) pair of the clusters that
+  /// are not factorised (f_r(s, s') chain(s), and for the path-conditioned weighting q_l),
+  /// evaluated once per pool instead of once per sweep, cluster by cluster in order while they
+  /// fit in a byte budget (a cluster that does not fit is skipped, later smaller ones may still fit).
+  template <class V>
   struct PairCache {
     static constexpr std::int64_t no_row = -(std::int64_t(1) << 62);
-    std::vector<S> value;
+    std::vector<V> value;
     std::vector<std::int64_t> row;  ///< per ending slot i: value[row[i] + j] for starting slot j, or no_row
 
-    template <class Link, class P = SerialFor>
-    void build(const Link& link, const Clustering<T>& clustering, std::span<const std::uint8_t> factorised,
+    /// `pair(i, j)` the value of ending slot i and starting slot j.
+    template <class Pair, class P = SerialFor>
+    void build(const Pair& pair, const Clustering<T>& clustering, std::span<const std::uint8_t> factorised,
                std::size_t budget_bytes, const P& parallel_for = {}) {
       const auto clusters = clustering.clusters();
       row.assign(clustering.ending_slot_count(), no_row);
       constexpr std::size_t none = ~std::size_t(0);
       std::vector<std::size_t> offset(clusters.size(), none);
-      const std::size_t budget = budget_bytes / sizeof(S);
+      const std::size_t budget = budget_bytes / sizeof(V);
       std::size_t total = 0;
       for (std::size_t c = 0; c < clusters.size(); ++c) {
         if (!factorised.empty() && factorised[c]) continue;
@@ -688,9 +738,14 @@ class SegmentFiltering {
         for (std::uint32_t e = 0; e < cl.ending_count(); ++e) {
           const std::size_t base = offset[c] + std::size_t(e) * m;
           row[first + e] = std::int64_t(base) - std::int64_t(cl.slot);
-          for (std::uint32_t q = 0; q < m; ++q) value[base + q] = link(0, 0, first + e, cl.slot + q);
+          for (std::uint32_t q = 0; q < m; ++q) value[base + q] = pair(first + e, cl.slot + q);
         }
       });
+    }
+    /// The value of pair (i, j), or nullptr where it is not cached.
+    [[nodiscard]] const V* find(std::uint32_t i, std::uint32_t j) const noexcept {
+      const std::int64_t r = row[i];
+      return r != no_row ? &value[std::size_t(r + j)] : nullptr;
     }
     /// Besides the pairs.
     static constexpr std::size_t bytes_per_segment = sizeof(std::int64_t);
@@ -710,10 +765,10 @@ class SegmentFiltering {
   /// A TransferLink that reads the pairs a PairCache holds.
   struct CachedTransferLink {
     TransferLink link;
-    const PairCache& cache;
+    const PairCache<S>& cache;
     S operator()(std::uint32_t s, std::uint32_t sp, std::uint32_t i, std::uint32_t j) const noexcept {
-      const std::int64_t r = cache.row[i];
-      return r != PairCache::no_row ? cache.value[std::size_t(r + j)] : link(s, sp, i, j);
+      const S* cached = cache.find(i, j);
+      return cached ? *cached : link(s, sp, i, j);
     }
   };
 
@@ -731,8 +786,9 @@ class SegmentFiltering {
     Transfer transfer;
     transfer.build(pool, clustering, factorised, parallel_for);
     const TransferLink link{scene.bsdf(), transfer};
-    PairCache cache;
-    cache.build(link, clustering, factorised, options_.transfer_cache_bytes, parallel_for);
+    PairCache<S> cache;
+    cache.build([&](std::uint32_t i, std::uint32_t j) { return link(0, 0, i, j); }, clustering, factorised,
+                options_.transfer_cache_bytes, parallel_for);
     stats.transfer_cache_bytes = cache.value.size() * sizeof(S);
     const CachedTransferLink cached{link, cache};
     const PropagationInputs<S, CachedTransferLink> inputs{clustering, pool.emitted, weighted_geometry, cached, diffuse, factorised};
@@ -787,13 +843,193 @@ class SegmentFiltering {
     propagate(inputs, iterations, radiance, scratch, parallel_for);
   }
 
-  /// Step 4: the MMIS denominators D(s) of every pooled segment (N39), voxel support.
+  // ---- Path-conditioned weighting (BDPF, propagation/path_conditioned.hpp) ---------------
+
+  /// Whether this method weights chains path-conditioned (only BDPF has both sides).
+  [[nodiscard]] bool path_conditioned() const noexcept {
+    return options_.mode == FilteringMode::bdpf && options_.weighting == FilteringWeighting::path_conditioned;
+  }
+
+  /// What the path-conditioned weighting needs besides D(s): the light side D_l(s) of the
+  /// denominator (light start and light technique samples), its number of positive terms, and
+  /// the side flags (conditioned_*).
+  struct LightSide {
+    std::vector<T> density, technique_density;  ///< D_l, D_lt (propagation/path_conditioned.hpp)
+    std::vector<std::uint32_t> terms, depth;    ///< positive terms of D_l; light path depth (light start 1)
+    std::vector<std::uint8_t> flags;
+  };
+  static constexpr std::size_t conditioned_bytes_per_segment =
+      4 * sizeof(ConditionedValues<S>) + 8 * sizeof(T) + 4 * sizeof(std::uint32_t) + 3 + sizeof(std::int64_t);  // + the pair cache rows
+
+  /// q_l(s | s'), the one pair density of the weighting: the density with which a light
+  /// technique sample at x_{s'} (the approximate light predecessor, N33) draws s, kernel
+  /// included; in the measure of s (area at y, N31 mirrored). 0 where no light predecessor can
+  /// be s. D_l(s) sums it over the light technique samples among the s' starting near y_s.
+  /// `scale` is light_pair_scale(pool, kernel, s), the part that depends on s alone.
+  template <class B>
+  [[nodiscard]] static T light_pair_density(const B& bsdf, const Pool& pool, T scale, std::uint32_t s,
+                                            std::uint32_t sp) noexcept {
+    if (!(scale > T(0)) || pool.segments[sp].x.kind != PointKind::surface || (pool.flags[sp] & transmission_chain)) return T(0);
+    const T q = scale * light_technique_pdf(bsdf, pool, sp, s);
+    return std::isfinite(q) && q > T(0) ? q : T(0);
+  }
+  [[nodiscard]] static T light_pair_scale(const Pool& pool, T kernel, std::uint32_t s) noexcept {
+    return light_reachable(pool, s) ? kernel * light_measure(pool, s) : T(0);
+  }
+
+  /// The light side of every denominator, disk support.
+  template <class P = SerialFor>
+  void light_side(const Scn& scene, const Pool& pool, const DiskJunctions<T>& junctions, LightSide& side,
+                  const P& parallel_for = {}) const {
+    light_side_start(scene, pool, side, parallel_for);
+    const auto& bsdf = scene.bsdf();
+    parallel_for(pool.size(), [&](std::size_t i) {
+      const auto s = std::uint32_t(i);
+      const T scale = light_pair_scale(pool, junctions.kernel(), s);
+      if (!(scale > T(0))) return;
+      for (const std::uint32_t u : junctions.starting_near(s)) {
+        if (!(pool.flags[u] & light_technique)) continue;
+        add_light_term(side, s, u, light_pair_density(bsdf, pool, scale, s, u));
+      }
+    });
+  }
+
+  /// Step 5 with the path-conditioned weighting; returns the weighted L per segment and G
+  /// (the weights are inside: a sensor segment's pixel value is W G L).
+  template <class Support, class P = SerialFor>
+  void propagate_conditioned_pool(const Scn& scene, const Pool& pool, const Support& support, const LightSide& side,
+                                  int iterations, std::vector<S>& radiance, std::vector<T>& geometry, FilteringStats& stats,
+                                  const P& parallel_for = {}) const {
+    const auto& bsdf = scene.bsdf();
+    // The s-only part of q_l(s | s'), per segment (as light_side computes it).
+    std::vector<T> scale(pool.size(), T(0));
+    parallel_for(pool.size(), [&](std::size_t i) {
+      const auto s = std::uint32_t(i);
+      if constexpr (std::is_same_v<Support, DiskJunctions<T>>) {
+        scale[s] = light_pair_scale(pool, support.kernel(), s);
+      } else {
+        const std::uint32_t c = support.cluster_of_y(s);
+        if (c != no_cluster) scale[s] = light_pair_scale(pool, support.clusters()[c].kernel, s);
+      }
+    });
+    auto light_pair = [&](std::uint32_t s, std::uint32_t sp) -> T { return light_pair_density(bsdf, pool, scale[s], s, sp); };
+    if constexpr (std::is_same_v<Support, DiskJunctions<T>>) {
+      auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
+        return bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance}) *
+               pool.chain[s];
+      };
+      const ConditionedInputs<S, decltype(link), decltype(light_pair)> inputs{
+          pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags, link, light_pair};
+      propagate_conditioned(support, inputs, iterations, radiance, parallel_for);
+      (void)stats;
+    } else {
+      std::vector<std::uint8_t> factorised;
+      std::vector<S> diffuse;
+      if (options_.factorise) conditioned_factorisation(scene, pool, support, factorised, diffuse, stats);
+      // The general clusters read slot-ordered copies (Transfer, and the starts and s-only
+      // factors of q_l): f_r and q_l by slot, as propagate_pool does.
+      Transfer transfer;
+      transfer.build(pool, support, factorised, parallel_for);
+      std::vector<SurfacePoint<T>> starting_x(transfer.starting_direction.size());
+      std::vector<T> ending_scale(transfer.ending.size(), T(0));
+      const auto clusters = support.clusters();
+      parallel_for(clusters.size(), [&](std::size_t c) {
+        if (!factorised.empty() && factorised[c]) return;
+        const Cluster<T>& cl = clusters[c];
+        for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j)
+          starting_x[transfer.starting_record.empty() ? j : transfer.starting_record[j]] =
+              pool.segments[support.starting_segments()[j]].x;
+        const std::uint32_t first = cl.ending_slot(cl.middle);
+        for (std::uint32_t i = first; i < first + cl.ending_count(); ++i)
+          ending_scale[transfer.ending_record.empty() ? i : transfer.ending_record[i]] = scale[support.ending_segments()[i]];
+      });
+      // f_r and q_l of the pairs that fit in the cache budget, once per pool (q_l only where
+      // propagate_conditioned reads it: s' a potential light technique).
+      struct PairTerms {
+        S f;
+        T q;
+      };
+      PairCache<PairTerms> cache;
+      struct SlotLink {
+        TransferLink transfer_link;
+        const PairCache<PairTerms>& cache;
+        S operator()(std::uint32_t s, std::uint32_t sp, std::uint32_t i, std::uint32_t j) const noexcept {
+          const PairTerms* cached = cache.find(i, j);
+          return cached ? cached->f : transfer_link(s, sp, i, j);
+        }
+      };
+      struct SlotLightPair {
+        decltype(light_pair) by_id;
+        decltype(std::declval<const Scn&>().bsdf()) bsdf;
+        const Transfer& transfer;
+        const std::vector<SurfacePoint<T>>& starting_x;
+        const std::vector<T>& ending_scale;
+        const PairCache<PairTerms>* cache;
+        T operator()(std::uint32_t s, std::uint32_t sp) const noexcept { return by_id(s, sp); }
+        // light_pair_density from the copies (called for potential light techniques s' only,
+        // which excludes chains through a delta transmission): the same product, the same number.
+        T operator()(std::uint32_t, std::uint32_t, std::uint32_t i, std::uint32_t j) const noexcept {
+          if (cache)
+            if (const PairTerms* cached = cache->find(i, j)) return cached->q;
+          const std::uint32_t ir = transfer.ending_record.empty() ? i : transfer.ending_record[i];
+          const std::uint32_t jr = transfer.starting_record.empty() ? j : transfer.starting_record[j];
+          const T scale_s = ending_scale[ir];
+          if (!(scale_s > T(0)) || starting_x[jr].kind != PointKind::surface) return T(0);
+          const T q = scale_s * bsdf.pdf(BsdfQuery<T>{starting_x[jr], transfer.ending[ir].outgoing, transfer.starting_direction[jr],
+                                                      Transport::importance});
+          return std::isfinite(q) && q > T(0) ? q : T(0);
+        }
+      };
+      const TransferLink transfer_link{scene.bsdf(), transfer};
+      const SlotLightPair evaluate_q{light_pair, scene.bsdf(), transfer, starting_x, ending_scale, nullptr};
+      const auto starting_segment = support.starting_segments();
+      cache.build(
+          [&](std::uint32_t i, std::uint32_t j) {
+            const bool potential = side.flags[starting_segment[j]] & conditioned_potential;
+            return PairTerms{transfer_link(0, 0, i, j), potential ? evaluate_q(0, 0, i, j) : T(0)};
+          },
+          support, factorised, options_.transfer_cache_bytes, parallel_for);
+      stats.transfer_cache_bytes = cache.value.size() * sizeof(PairTerms);
+      const ConditionedInputs<S, SlotLink, SlotLightPair> slot_inputs{
+          pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags,
+          SlotLink{transfer_link, cache}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale, &cache}};
+      propagate_conditioned(support, slot_inputs, iterations, radiance, parallel_for, std::span<const std::uint8_t>(factorised),
+                            std::span<const S>(diffuse));
+    }
+    geometry.assign(pool.geometry.begin(), pool.geometry.end());
+  }
+
+  /// The clusters whose path-conditioned junction sums factorise: the transfer factorises
+  /// (transfer_factorisation) and every start is Lambertian with one normal and leaves its
+  /// front side, so q_l(s | s') is the same for every potential light technique s'.
+  void conditioned_factorisation(const Scn& scene, const Pool& pool, const Clustering<T>& clustering,
+                                 std::vector<std::uint8_t>& factorised, std::vector<S>& diffuse, FilteringStats& stats) const {
+    transfer_factorisation(scene, pool, clustering, factorised, diffuse, stats);
+    const auto refs = clustering.refs();
+    const auto x_of = [&](std::uint32_t s) -> const SurfacePoint<T>& { return pool.segments[s].x; };
+    for (std::size_t c = 0; c < factorised.size(); ++c) {
+      if (!factorised[c]) continue;
+      const Cluster<T>& cl = clustering.clusters()[c];
+      bool ok = common_lambertian_normal(scene, x_of, refs, cl.begin, cl.middle).has_value();
+      for (std::uint32_t r = cl.begin; r < cl.middle && ok; ++r) {
+        const std::uint32_t sp = refs[r].segment;
+        ok = glm::dot(pool.first_direction[sp], pool.segments[sp].x.normal) > one_sided_epsilon<T>;
+      }
+      if (!ok) factorised[c] = 0, stats.factorised_transfer_clusters -= 1;
+    }
+  }
+
+  /// Step 4: the MMIS denominators D(s) of every pooled segment (N39), voxel support; with
+  /// `side`, also the light side of every denominator for the path-conditioned weighting.
   template <class P>
   void compute_densities(const Scn& scene, Pool& pool, const Clustering<T>& clustering, FilteringStats& stats,
-                         const P& parallel_for) const {
+                         const P& parallel_for, LightSide* side = nullptr) const {
     const auto clusters = clustering.clusters();
     const auto refs = clustering.refs();
     const auto& bsdf = scene.bsdf();
+    if (side) light_side_start(scene, pool, *side, parallel_for);
+    // A light technique sample u whose draw would itself try a predecessor (D_lt, add_light_term).
+    const auto deep = [&](std::uint32_t u) { return side && std::size_t(side->depth[u]) + 2 < options_.max_length; };
     std::vector<T> camera_sum(pool.size(), T(0)), light_sum(pool.size(), T(0));
     std::vector<std::uint64_t> pairs(clusters.size(), 0);
     std::vector<std::uint8_t> camera_fact(clusters.size(), 0), light_fact(clusters.size(), 0);
@@ -852,31 +1088,46 @@ class SegmentFiltering {
         if (options_.factorise) common = common_lambertian_normal(scene, x_of, refs, cl.begin, cl.middle);
         light_fact[c] = common ? 1 : 0;
         const SurfacePoint<T>& any_x = pool.segments[refs[cl.begin].segment].x;
-        std::uint32_t valid_light = 0;
+        std::uint32_t valid_light = 0, valid_deep = 0;
         if (common)
           for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
             const std::uint32_t t = refs[q].segment;
-            if ((pool.flags[t] & light_technique) && glm::dot(pool.first_direction[t], any_x.normal) > one_sided_epsilon<T>)
+            if ((pool.flags[t] & light_technique) && glm::dot(pool.first_direction[t], any_x.normal) > one_sided_epsilon<T>) {
               ++valid_light;
+              valid_deep += deep(t) ? 1 : 0;
+            }
           }
         for (std::uint32_t r = cl.middle; r < cl.end; ++r) {
           const std::uint32_t sp = refs[r].segment;
           if (!light_reachable(pool, sp)) continue;
           const Vec3<T> to_sensor = -pool.last_direction[sp];
+          const T scale = cl.kernel * light_measure(pool, sp);
           T sum = T(0);
           if (common) {
             const T cosine = glm::dot(to_sensor, *common);
-            if (glm::dot(to_sensor, any_x.normal) > one_sided_epsilon<T> && cosine > T(0)) sum = T(valid_light) * cosine * inv_pi<T>;
+            if (glm::dot(to_sensor, any_x.normal) > one_sided_epsilon<T> && cosine > T(0)) {
+              sum = T(valid_light) * cosine * inv_pi<T>;
+              if (side && scale * cosine > T(0)) {
+                side->terms[sp] += valid_light;
+                side->technique_density[sp] += scale * T(valid_deep) * cosine * inv_pi<T>;
+              }
+            }
             pairs[c] += 1;
           } else {
             for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
               const std::uint32_t t = refs[q].segment;
               if (!(pool.flags[t] & light_technique)) continue;
-              sum += light_technique_pdf(bsdf, pool, t, sp);
+              const T pdf = light_technique_pdf(bsdf, pool, t, sp);
+              sum += pdf;
               pairs[c] += 1;
+              if (side && scale * pdf > T(0)) {
+                side->terms[sp] += 1;
+                if (deep(t)) side->technique_density[sp] += scale * pdf;
+              }
             }
           }
-          light_sum[sp] = cl.kernel * sum * light_measure(pool, sp);
+          light_sum[sp] = scale * sum;
+          if (side) side->density[sp] += light_sum[sp];
         }
       }
     });
@@ -992,6 +1243,64 @@ class SegmentFiltering {
     return cos_y > T(0) ? endpoint_cosine(pool.segments[s].x, pool.first_direction[s]) / cos_y : T(0);
   }
 
+  /// The flags of the path-conditioned weighting and the light-start term of D_l (as
+  /// finish_densities computes it).
+  template <class P>
+  void light_side_start(const Scn& scene, const Pool& pool, LightSide& side, const P& parallel_for) const {
+    const std::uint64_t light_paths = light_path_count(scene);
+    side.density.assign(pool.size(), T(0));
+    side.technique_density.assign(pool.size(), T(0));
+    side.terms.assign(pool.size(), 0);
+    side.flags.assign(pool.size(), 0);
+    // Light paths are pooled in path order (build_pool): a light predecessor follows the
+    // segment that drew it.
+    side.depth.assign(pool.size(), 0);
+    for (std::size_t i = 0; i < pool.size(); ++i) {
+      if (pool.flags[i] & light_start) side.depth[i] = 1;
+      else if (i > 0 && !(pool.flags[i] & (camera_born | bridge_segment)) && side.depth[i - 1] > 0) side.depth[i] = side.depth[i - 1] + 1;
+    }
+    parallel_for(pool.size(), [&](std::size_t i) {
+      const auto f = pool.flags[i];
+      const Segment<T>& s = pool.segments[i];
+      std::uint8_t flags = 0;
+      if (!(f & (camera_born | bridge_segment))) flags |= conditioned_light_born;
+      if (f & light_technique) flags |= conditioned_light_technique | conditioned_potential;
+      // A light path could have reached x (through delta reflections too) and tried a predecessor there.
+      if (s.x.kind == PointKind::surface && !(f & transmission_chain)) flags |= conditioned_potential;
+      side.flags[i] = flags;
+      const T d = light_start_density(scene, pool, i, light_paths);
+      if (!(std::isfinite(d) && d > T(0))) return;
+      side.density[i] = d;
+      side.terms[i] = 1;
+      if (2 < options_.max_length) side.technique_density[i] = d;  // a light start tries a predecessor
+    });
+  }
+
+  /// One light technique sample u's term of D_l(s) (and of D_lt(s) if the segment u draws
+  /// would itself try a predecessor: trace_light_path's depth rule).
+  void add_light_term(LightSide& side, std::uint32_t s, std::uint32_t u, T ql) const noexcept {
+    if (!(ql > T(0))) return;
+    side.density[s] += ql;
+    side.terms[s] += 1;
+    if (std::size_t(side.depth[u]) + 2 < options_.max_length) side.technique_density[s] += ql;
+  }
+
+  /// N_L p_L(s) (N30) of any segment whose light end could be emitted: plain segments, and
+  /// light-born chains, which leave area lights only (trace_light_path); 0 otherwise. For a
+  /// distant light end pdf_emission reads a point on the ray (concepts/emitter.hpp).
+  [[nodiscard]] static T light_start_density(const Scn& scene, const Pool& pool, std::size_t i, std::uint64_t light_paths) {
+    const auto f = pool.flags[i];
+    const Segment<T>& s = pool.segments[i];
+    const bool light_chain = (f & chain_segment) && s.y.kind == PointKind::surface && light_reachable(pool, i);
+    if (light_paths == 0 || s.x.kind != PointKind::surface || ((f & chain_segment) && !light_chain)) return T(0);
+    const Vec3<T> leaving = s.y.kind == PointKind::direction ? s.x.position : -pool.last_direction[i];
+    const EmissionPdf<T> e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{s.y, leaving});
+    const T p_light = e.position * e.direction;
+    if (!(p_light > T(0))) return T(0);
+    return T(light_paths) * p_light *
+           (s.y.kind == PointKind::direction ? endpoint_cosine(s.x, pool.last_direction[i]) : light_measure(pool, i));
+  }
+
   /// The unconditional techniques (sensor, light start), next-event segments (from K(x) n_cam
   /// per segment, empty when off) and the total D(s).
   template <class P>
@@ -1007,19 +1316,9 @@ class SegmentFiltering {
         const SensorPdf<T> p = scene.sensor().pdf(SensorQuery<T>{s.x, pool.first_direction[i]});
         d += p.position * p.direction * ((f & chain_segment) ? T(1) : solid_angle_to_area(T(1), s.x, s.y));
       }
-      // Light-born chains leave area lights only (trace_light_path).
-      const bool light_chain = (f & chain_segment) && s.y.kind == PointKind::surface && light_reachable(pool, i);
-      if (light_paths > 0 && (!(f & chain_segment) || light_chain)) {
-        // N_L p_L(s) (N30) for any segment whose light end could be emitted.
-        // For a distant light end pdf_emission reads a point on the ray (concepts/emitter.hpp).
-        const Vec3<T> leaving = s.y.kind == PointKind::direction ? s.x.position : -pool.last_direction[i];
-        const EmissionPdf<T> e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{s.y, leaving});
-        T p_light = e.position * e.direction;
-        if (p_light > T(0) && s.x.kind == PointKind::surface) {
-          p_light *= s.y.kind == PointKind::direction ? endpoint_cosine(s.x, pool.last_direction[i]) : light_measure(pool, i);
-          if (f & delta_light) d = T(0);  // only light sampling produces a Dirac light end
-          d += T(light_paths) * p_light;
-        }
+      if (const T p_light = light_start_density(scene, pool, i, light_paths); p_light > T(0)) {
+        if (f & delta_light) d = T(0);  // only light sampling produces a Dirac light end
+        d += p_light;
       }
       if (!camera_points_at_x.empty() && camera_points_at_x[i] > T(0) && s.x.kind == PointKind::surface && !(f & chain_segment)) {
         // Next-event segments: K(x) n_cam(C(x)) p_L(y | x), in y's measure (a Dirac's coefficient).

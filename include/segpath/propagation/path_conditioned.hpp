@@ -1,0 +1,368 @@
+// Propagation (SPEC 1.8) of the recursive MMIS estimator (N39, N40) with the path-conditioned
+// weighting of a pooled bidirectional chain: unbiased where the paper's product of 1/D(s) is not.
+//
+// Why the paper's weight is biased. A chain s_1 ... s_k of pooled segments (s_i ends, s_{i+1}
+// starts in one cluster) is weighted prod_i 1/D(s_i), each D(s_i) summing the densities of
+// every technique sample in the pool (N39). Split D = D_c + D_l: D_c the camera side (sensor,
+// camera successors, and whatever else a camera-side point draws), D_l the light side (light
+// start, light predecessors). Which techniques a segment's D holds depends on the *sides its
+// neighbours were born on*: D_c(s_i) holds s_{i-1} only if s_{i-1} is a camera technique
+// sample, D_l(s_i) holds s_{i+1} only if s_{i+1} is a light technique sample. Read as MIS over
+// the chain's side patterns sigma (who drew whom; SPEC 1.8 step 3's w(s) per segment), the
+// paper's weight is alpha(sigma) / p_sigma with p_sigma = prod_i p_i(sigma_i | sigma_{i-1},
+// sigma_{i+1}) the pooled density of the chain drawn that way and alpha_i = D_side(s_i) / D(s_i),
+// and these alpha do not sum to one over sigma: each is normalised with the *actual*
+// neighbours in place of the hypothesised ones (two-segment toy: expectation 1 + u (1 - v)).
+//
+// The path-conditioned weight. Any alpha with sum_sigma alpha(sigma) = 1 that puts no mass on
+// patterns the pool cannot produce gives an estimator whose expectation is exact (SMIS, N11,
+// per side pattern), and a *forward Markov* alpha, alpha(sigma) = prod_i alpha_i(sigma_i |
+// sigma_{i-1}), sums to one by construction. With p_c(s_i | sigma_{i-1}) = D_c(s_i) (the pool's
+// own camera sum, whose only neighbour dependence is on the predecessor), p_l(s_i | sigma_{i+1})
+// = D_l(s_i), and
+//   D_l'(s_i)   = D_l(s_i) without s_{i+1}'s term,
+//   Lambda(s_i) = D_l'(s_i) + q_l(s_i | s_{i+1})        (s_{i+1} counted as a light technique),
+//   e(s_i)      = [D_l'(s_i) > 0] or (q_l(s_i | s_{i+1}) > 0 and e(s_{i+1})),
+//   e(s_k)      = [D_l(s_k) > 0]    (e: a light birth of s_i is possible along this continuation),
+//   G(s_i)      = D(s_i) - D_l(s_i) + e(s_i) Lambda(s_i)      (s_k: D(s_k)),
+// take alpha_i(camera or other) = D_c / G, alpha_i(light) = e Lambda / G, except after a
+// light-born s_{i-1} with D_l'(s_{i-1}) = 0 (only s_i can have drawn it): alpha_i(light
+// technique) = 1. Then the weight alpha / p_sigma of the chain as drawn is prod_i r_i with
+//   r_i = 1 / G(s_i)                                   camera- or other-born s_i,
+//   r_i = e Lambda / (G(s_i) D_l(s_i))                  light-born s_i,
+//   r_i = 1 / D_lt(s_i)                                 forced (after the case above; 0 unless s_i
+//                                                        is a light technique sample),
+// where D_lt <= D_l keeps the light generators whose child tries a predecessor (light paths stop
+// at max_length: a light birth is a light *technique* birth only with part of D_l; alpha splits
+// the light mass between "technique" and "not" in that proportion, so only the forced case
+// sees it),
+// and r_k = 1 / D(s_k) unless forced. The camera side needs no pair density at all (alpha
+// conditions on the actual predecessor, whose camera technique is in D_c already, so a camera
+// technique that also draws next-event segments only has to be in D); the light side needs
+// q_l(s | s') of every junction. Toy check (layers of discrete clusters, bias_exp/toy2.cpp,
+// not in the tree): expectation 0.9996 +- 0.0004 (2 layers of 100 clusters), 1.0007 +- 0.0006
+// (3 of 30), 0.99997 +- 0.0006 (2 of 3), where the paper's gives 1.0439, 1.0249, 1.0008.
+// Remaining bias: a technique sample that is the pool successor of a chain segment but not in
+// the chain (its presence depends on how the chain was drawn; O(1 / technique samples per
+// cluster)); a technique sample used twice by one chain (revisits).
+//
+// The recursion: r_i depends on s_{i+1} and on two bits, e(s_i) (from the suffix) and "forced"
+// (from the predecessor), so each segment carries four values, U_e and W_e for e in {0, 1}:
+// the suffix sums sum_{chains from s, e(s) = e} (prod of transfers and r of the segments after
+// s) L_e, without (U) and with (W) s's own free r. A successor s' is read as W_e(s'), or
+// U_e(s') / D_lt(s') where s forces it. k Jacobi iterations count chains of up to k + 1
+// segments. Cost per iteration: one link and one q_l evaluation per junction, or O(n + m) in a
+// factorised cluster (three classes of s'); memory two sets of four values per segment.
+#pragma once
+
+#include "segpath/config.hpp"
+#include "segpath/core/parallel.hpp"
+#include "segpath/core/spectrum.hpp"
+#include "segpath/propagation/clustering.hpp"
+#include "segpath/propagation/disk_junctions.hpp"
+#include "segpath/propagation/propagate.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cstdint>
+#include <span>
+#include <stdexcept>
+#include <type_traits>
+#include <vector>
+
+namespace segpath {
+
+/// Per-segment side flags of the path-conditioned weighting.
+inline constexpr std::uint8_t conditioned_light_born = 1;       ///< drawn by a light-side technique
+inline constexpr std::uint8_t conditioned_light_technique = 2;  ///< a light predecessor draw was attempted from x
+inline constexpr std::uint8_t conditioned_potential = 4;        ///< x could be a light technique point (implied by 2)
+
+/// What the path-conditioned propagation needs of a pool, per segment s:
+///  - emitted[s] L_e(s), geometry[s] G(s);
+///  - density[s] D(s) (every technique, N39), light_density[s] D_l(s) (light start and light
+///    technique samples only), light_terms[s] the number of positive terms in D_l(s),
+///    light_technique_density[s] D_lt(s) <= D_l(s): the terms whose draw would itself have
+///    tried a predecessor (read only for light technique samples);
+///  - flags[s] (conditioned_*);
+///  - link(s, s'): f_r(s, s') (N20) for s ending and s' starting in one cluster (or disk);
+///  - light_pair(s, s'): q_l(s | s'), the density (with the kernel) with which a light
+///    technique sample at x_{s'} draws s; 0 where s cannot be drawn so. It must be the term s'
+///    adds to D_l(s) when s' is a light technique sample.
+/// Over clusters, link and light_pair may also take (s, s', i, j), i the ending slot of s and j
+/// the starting slot of s' (as in propagation/propagate.hpp), to read slot-ordered copies; the
+/// general clusters then call that form (factorised clusters never call link, and call
+/// light_pair(s, s') once per pool).
+template <Spectrum S, class Link, class LightPair>
+struct ConditionedInputs {
+  using T = spectrum_scalar_t<S>;
+  std::span<const S> emitted;
+  std::span<const T> geometry, density, light_density;
+  std::span<const std::uint32_t> light_terms;
+  std::span<const T> light_technique_density;
+  std::span<const std::uint8_t> flags;
+  Link link;
+  LightPair light_pair;
+};
+
+/// The four suffix sums of a segment (see the header comment).
+template <Spectrum S>
+struct ConditionedValues {
+  std::array<S, 2> u{S(spectrum_scalar_t<S>(0)), S(spectrum_scalar_t<S>(0))};
+  std::array<S, 2> w{S(spectrum_scalar_t<S>(0)), S(spectrum_scalar_t<S>(0))};
+};
+
+namespace detail {
+
+template <Spectrum S, class Link, class LightPair>
+void check_conditioned(const ConditionedInputs<S, Link, LightPair>& in, int iterations) {
+  const std::size_t n = in.emitted.size();
+  if (iterations < 1) throw std::invalid_argument("segpath::propagate_conditioned: iterations must be >= 1");
+  if (in.geometry.size() != n || in.density.size() != n || in.light_density.size() != n || in.light_terms.size() != n ||
+      in.light_technique_density.size() != n || in.flags.size() != n)
+    throw std::invalid_argument("segpath::propagate_conditioned: the per-segment inputs differ in size");
+}
+
+/// The values of a segment that ends the chain: L_e(s) in state e = [D_l(s) > 0], W with 1 / D.
+template <Spectrum S, class Link, class LightPair>
+ConditionedValues<S> conditioned_emission(const ConditionedInputs<S, Link, LightPair>& in, std::size_t s) noexcept {
+  using T = spectrum_scalar_t<S>;
+  ConditionedValues<S> v;
+  const int e = in.light_density[s] > T(0) ? 1 : 0;
+  v.u[e] = in.emitted[s];
+  v.w[e] = in.density[s] > T(0) ? in.emitted[s] * (T(1) / in.density[s]) : S(T(0));
+  return v;
+}
+
+/// 1 / D_lt(s') where s' is read forced (a light technique sample), else 0.
+template <Spectrum S, class Link, class LightPair>
+spectrum_scalar_t<S> conditioned_forced_weight(const ConditionedInputs<S, Link, LightPair>& in, std::uint32_t sp) noexcept {
+  using T = spectrum_scalar_t<S>;
+  const std::uint8_t fp = in.flags[sp];
+  return (fp & conditioned_light_born) && (fp & conditioned_light_technique) && in.light_technique_density[sp] > T(0)
+             ? T(1) / in.light_technique_density[sp]
+             : T(0);
+}
+
+/// What a junction reads of its ending segment s, gathered once per pool.
+template <Real T>
+struct ConditionedEnd {
+  T light = 0, rest = 0;  ///< D_l(s), D(s) - D_l(s)
+  std::uint32_t terms = 0;
+  std::uint8_t flags = 0;
+};
+
+template <Spectrum S, class Link, class LightPair>
+ConditionedEnd<spectrum_scalar_t<S>> conditioned_end(const ConditionedInputs<S, Link, LightPair>& in, std::size_t s) noexcept {
+  using T = spectrum_scalar_t<S>;
+  return {in.light_density[s], std::max(T(0), in.density[s] - in.light_density[s]), in.light_terms[s], in.flags[s]};
+}
+
+/// What a junction reads of its starting segment s', gathered once per pool.
+template <Real T>
+struct ConditionedStart {
+  T geometry = 0, forced_weight = 0;
+  std::uint32_t source = no_cluster;  ///< the ending slot s''s values are read from (no_cluster: emission only)
+  std::uint8_t flags = 0;
+};
+
+/// Adds the junction s -> s' (transfer = K f_r(s, s') G(s')) to s's values, reading s''s
+/// values of the previous iteration (flags fp, 1 / D_lt(s') where read forced). Linear in
+/// `next`: a factorised cluster passes sums over successors of one flag class.
+template <Spectrum S>
+SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_scalar_t<S>>& end, std::uint8_t fp, spectrum_scalar_t<S> forced_weight,
+                          const S& transfer, spectrum_scalar_t<S> ql, const ConditionedValues<S>& next,
+                          ConditionedValues<S>& acc) noexcept {
+  using T = spectrum_scalar_t<S>;
+  const std::uint8_t fs = end.flags;
+  const bool light_born = fs & conditioned_light_born;
+  const bool successor_technique = fp & conditioned_light_technique;
+  if (!(fp & conditioned_potential)) ql = T(0);
+  const bool excluded = successor_technique && ql > T(0);
+  const std::uint32_t terms = end.terms - (excluded && end.terms > 0 ? 1u : 0u);
+  const T dl = end.light;
+  const T dl_other = terms > 0 ? std::max(T(0), dl - (excluded ? ql : T(0))) : T(0);
+  const bool forced = light_born && terms == 0;
+  const T lambda = dl_other + ql;
+  const T rest = end.rest;
+  for (int e_next = 0; e_next < 2; ++e_next) {
+    const S v = forced ? next.u[e_next] * forced_weight : next.w[e_next];
+    const int e = (terms > 0 || (ql > T(0) && e_next == 1)) ? 1 : 0;
+    const T g = rest + (e ? lambda : T(0));
+    T r = T(0);
+    if (light_born) {
+      if (e && g > T(0) && dl > T(0)) r = lambda / (g * dl);
+    } else if (g > T(0)) {
+      r = T(1) / g;
+    }
+    const S contribution = transfer * v;
+    acc.u[e] += contribution;
+    acc.w[e] += contribution * r;
+  }
+}
+
+}  // namespace detail
+
+/// `iterations` >= 1 Jacobi iterations over the clusters from the emission; returns per
+/// segment W_0 + W_1 in `weighted` (L(s) with the chain weights, s's own included: a sensor
+/// segment's pixel value is W G(s) weighted[s]). Parallel over clusters; each segment's values
+/// are written by the one cluster holding its y end, junctions summed in ref order, so the
+/// result does not depend on the number of threads. Everything is kept per slot in cluster order,
+/// so an iteration reads the values of each s' at random once and the rest in order. Memory:
+/// four ConditionedValues (emission, two iterations, starting slot) and 32 bytes per segment.
+///
+/// `factorised[c]` (optional, one per cluster) marks clusters where link(s, s') = diffuse[s]
+/// for every s ending and s' starting there and light_pair(s, s') is the same for every s'
+/// with conditioned_potential (Lambertian ends and starts with one normal): their junctions are
+/// summed per flag class of s' (three classes), O(#ending + #starting) instead of the product.
+template <Spectrum S, class Link, class LightPair, ParallelFor P = SerialFor>
+void propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& clustering, const ConditionedInputs<S, Link, LightPair>& in,
+                           int iterations, std::vector<S>& weighted, const P& parallel_for = {},
+                           std::span<const std::uint8_t> factorised = {}, std::span<const S> diffuse = {}) {
+  using T = spectrum_scalar_t<S>;
+  detail::check_conditioned(in, iterations);
+  const std::size_t n = in.emitted.size();
+  if (!factorised.empty() && (factorised.size() != clustering.clusters().size() || diffuse.size() != n))
+    throw std::invalid_argument("segpath::propagate_conditioned: factorisation data does not match the pool");
+  const auto clusters = clustering.clusters();
+  const auto starting_segment = clustering.starting_segments();
+  const auto ending_segment = clustering.ending_segments();
+  // Everything per slot, in cluster order (propagation/clustering.hpp): an iteration reads the
+  // values of s' at random once per starting slot and the rest in order.
+  std::vector<detail::ConditionedEnd<T>> end(ending_segment.size());
+  std::vector<ConditionedValues<S>> emission(ending_segment.size()), current, next(ending_segment.size()),
+      starting_values(starting_segment.size());
+  std::vector<detail::ConditionedStart<T>> start(starting_segment.size());
+  std::vector<S> ending_diffuse(factorised.empty() ? 0 : ending_segment.size());
+  detail::for_blocks(ending_segment.size(), parallel_for, [&](std::size_t i) {
+    const std::uint32_t s = ending_segment[i];
+    end[i] = detail::conditioned_end(in, s);
+    emission[i] = detail::conditioned_emission(in, s);
+    if (!factorised.empty()) ending_diffuse[i] = diffuse[s];
+  });
+  detail::for_blocks(starting_segment.size(), parallel_for, [&](std::size_t j) {
+    const std::uint32_t sp = starting_segment[j];
+    start[j] = {in.geometry[sp], detail::conditioned_forced_weight(in, sp), clustering.ending_slot_of(sp), in.flags[sp]};
+  });
+  // In a factorised cluster q_l(s | s') is the same for every potential s': once per pool.
+  std::vector<T> ending_light(factorised.empty() ? 0 : ending_segment.size(), T(0));
+  if (!factorised.empty()) {
+    parallel_for(clusters.size(), [&](std::size_t c) {
+      if (!factorised[c]) return;
+      const Cluster<T>& cl = clusters[c];
+      std::uint32_t representative = no_cluster;
+      for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j)
+        if (start[j].geometry > T(0) && (start[j].flags & conditioned_potential)) representative = starting_segment[j];
+      if (representative == no_cluster) return;
+      const std::uint32_t first = cl.ending_slot(cl.middle);
+      for (std::uint32_t i = first; i < first + cl.ending_count(); ++i) ending_light[i] = in.light_pair(ending_segment[i], representative);
+    });
+  }
+  current = emission;
+  for (int k = 0; k < iterations; ++k) {
+    detail::for_blocks(starting_segment.size(), parallel_for, [&](std::size_t j) {
+      const std::uint32_t i = start[j].source;
+      starting_values[j] = i == no_cluster ? detail::conditioned_emission(in, starting_segment[j]) : current[i];
+    });
+    parallel_for(clusters.size(), [&](std::size_t c) {
+      const Cluster<T>& cl = clusters[c];
+      const std::uint32_t first_ending = cl.ending_slot(cl.middle), last_ending = first_ending + cl.ending_count();
+      const std::uint32_t first_starting = cl.slot, last_starting = cl.slot + cl.starting_count();
+      if (!factorised.empty() && factorised[c]) {
+        // Classes of s': 0 not a potential light technique, 1 potential, 2 light technique sample.
+        constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
+                                                 conditioned_potential | conditioned_light_technique | conditioned_light_born};
+        std::array<ConditionedValues<S>, 3> sum{};
+        for (std::uint32_t j = first_starting; j < last_starting; ++j) {
+          const detail::ConditionedStart<T>& st = start[j];
+          if (!(st.geometry > T(0))) continue;
+          const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
+          for (int e = 0; e < 2; ++e) {
+            sum[k_class].w[e] += starting_values[j].w[e] * st.geometry;
+            sum[k_class].u[e] += starting_values[j].u[e] * (st.geometry * st.forced_weight);
+          }
+        }
+        for (std::uint32_t i = first_ending; i < last_ending; ++i) {
+          ConditionedValues<S> acc = emission[i];
+          const S transfer = ending_diffuse[i] * cl.kernel;
+          const T ql = ending_light[i];
+          for (int k_class = 0; k_class < 3; ++k_class)
+            detail::conditioned_junction(end[i], class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0), sum[k_class], acc);
+          next[i] = acc;
+        }
+        return;
+      }
+      for (std::uint32_t i = first_ending; i < last_ending; ++i) {
+        const std::uint32_t s = ending_segment[i];
+        ConditionedValues<S> acc = emission[i];
+        for (std::uint32_t j = first_starting; j < last_starting; ++j) {
+          const detail::ConditionedStart<T>& st = start[j];
+          if (!(st.geometry > T(0))) continue;
+          const std::uint32_t sp = starting_segment[j];
+          S f;
+          if constexpr (std::is_invocable_v<const Link&, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>) {
+            f = in.link(s, sp, i, j);
+          } else {
+            f = in.link(s, sp);
+          }
+          const S transfer = f * (cl.kernel * st.geometry);
+          T ql = T(0);
+          if (st.flags & conditioned_potential) {
+            if constexpr (std::is_invocable_v<const LightPair&, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>) {
+              ql = T(in.light_pair(s, sp, i, j));
+            } else {
+              ql = T(in.light_pair(s, sp));
+            }
+          }
+          detail::conditioned_junction(end[i], st.flags, st.forced_weight, transfer, ql, starting_values[j], acc);
+        }
+        next[i] = acc;
+      }
+    });
+    std::swap(current, next);
+  }
+  // Segments whose y end is in no cluster keep their emission.
+  weighted.resize(n);
+  detail::for_blocks(n, parallel_for, [&](std::size_t s) {
+    const ConditionedValues<S> v = detail::conditioned_emission(in, s);
+    weighted[s] = v.w[0] + v.w[1];
+  });
+  detail::for_blocks(ending_segment.size(), parallel_for,
+                     [&](std::size_t i) { weighted[ending_segment[i]] = current[i].w[0] + current[i].w[1]; });
+}
+
+/// The same over the disk support: s' ranges over starting_near(s), K = 1 / (pi r^2).
+template <Spectrum S, class Link, class LightPair, ParallelFor P = SerialFor>
+void propagate_conditioned(const DiskJunctions<spectrum_scalar_t<S>>& junctions, const ConditionedInputs<S, Link, LightPair>& in,
+                           int iterations, std::vector<S>& weighted, const P& parallel_for = {}) {
+  using T = spectrum_scalar_t<S>;
+  detail::check_conditioned(in, iterations);
+  const std::size_t n = in.emitted.size();
+  if (junctions.segment_count() != n)
+    throw std::invalid_argument("segpath::propagate_conditioned: the junctions and the inputs differ in size");
+  const T kernel = junctions.kernel();
+  std::vector<ConditionedValues<S>> current(n), next(n);
+  for (std::size_t s = 0; s < n; ++s) current[s] = detail::conditioned_emission(in, s);
+  constexpr std::size_t chunk = 1024;
+  const std::size_t chunks = (n + chunk - 1) / chunk;
+  for (int k = 0; k < iterations; ++k) {
+    parallel_for(chunks, [&](std::size_t c) {
+      for (std::size_t i = c * chunk; i < std::min(n, (c + 1) * chunk); ++i) {
+        const auto s = std::uint32_t(i);
+        ConditionedValues<S> acc = detail::conditioned_emission(in, s);
+        const detail::ConditionedEnd<T> end = detail::conditioned_end(in, s);
+        for (const std::uint32_t sp : junctions.starting_near(s)) {
+          if (!(in.geometry[sp] > T(0))) continue;
+          const S transfer = in.link(s, sp) * (kernel * in.geometry[sp]);
+          const T ql = (in.flags[sp] & conditioned_potential) ? T(in.light_pair(s, sp)) : T(0);
+          detail::conditioned_junction(end, in.flags[sp], detail::conditioned_forced_weight(in, sp), transfer, ql, current[sp], acc);
+        }
+        next[s] = acc;
+      }
+    });
+    std::swap(current, next);
+  }
+  weighted.resize(n);
+  for (std::size_t s = 0; s < n; ++s) weighted[s] = current[s].w[0] + current[s].w[1];
+}
+
+}  // namespace segpath

@@ -1,0 +1,289 @@
+// The path-conditioned propagation equals a naive enumeration of every chain with the
+// conditioned weight of propagation/path_conditioned.hpp written out per chain, on random small
+// pools over voxel clusters and disks, and does not depend on the number of threads.
+#include <segpath/propagation/path_conditioned.hpp>
+
+#include <algorithm>
+#include <functional>
+#include <thread>
+#include <vector>
+
+#include "support/catch.hpp"
+
+using namespace segpath;
+
+namespace {
+
+struct RandomSides {
+  std::vector<Segment<double>> segments;
+  std::vector<double> emitted, geometry, density, light, light_technique;
+  std::vector<std::uint32_t> terms;
+  std::vector<std::uint8_t> flags;
+  std::vector<double> link_table, light_table;  // per ordered pair
+  std::size_t n = 0;
+  [[nodiscard]] double link(std::uint32_t s, std::uint32_t sp) const { return link_table[s * n + sp]; }
+  [[nodiscard]] double light_pair(std::uint32_t s, std::uint32_t sp) const { return light_table[s * n + sp]; }
+};
+
+/// Random sides and densities; D_l(s) sums the light technique samples among `near(s)` (the
+/// segments a light technique could draw s from) as the algorithm does.
+RandomSides make_sides(Pcg32& rng) {
+  RandomSides p;
+  p.n = 4 + rng.next_u32() % 9;
+  auto point = [&] {
+    if (rng.uniform<double>() < 0.06) return SurfacePoint<double>::at_point({0, 0, -5});
+    return SurfacePoint<double>::on_surface({rng.uniform<double>() * 1.6, rng.uniform<double>() * 1.6, 0.5}, {0, 0, 1});
+  };
+  for (std::size_t i = 0; i < p.n; ++i) {
+    p.segments.push_back({point(), point()});
+    p.emitted.push_back(rng.uniform<double>() < 0.4 ? 0.0 : rng.uniform<double>() * 3);
+    p.geometry.push_back(rng.uniform<double>() < 0.08 ? 0.0 : 0.2 + rng.uniform<double>());
+    std::uint8_t f = 0;
+    if (rng.uniform<double>() < 0.5) f |= conditioned_light_born;
+    if (rng.uniform<double>() < 0.75) f |= conditioned_potential;
+    if ((f & conditioned_light_born) && (f & conditioned_potential) && rng.uniform<double>() < 0.7) f |= conditioned_light_technique;
+    p.flags.push_back(f);
+  }
+  p.link_table.resize(p.n * p.n);
+  p.light_table.resize(p.n * p.n);
+  for (auto& l : p.link_table) l = rng.uniform<double>() * 0.8;
+  for (auto& q : p.light_table) q = rng.uniform<double>() < 0.3 ? 0.0 : rng.uniform<double>() * 2;
+  return p;
+}
+
+template <class Near>
+void finish_densities(RandomSides& p, Pcg32& rng, const Near& near) {
+  p.density.assign(p.n, 0);
+  p.light.assign(p.n, 0);
+  p.light_technique.assign(p.n, 0);
+  p.terms.assign(p.n, 0);
+  for (std::uint32_t s = 0; s < p.n; ++s) {
+    if (rng.uniform<double>() < 0.4) {  // a light-start term
+      const double d = 0.1 + rng.uniform<double>();
+      p.light[s] += d, p.terms[s] += 1;
+      if (rng.uniform<double>() < 0.7) p.light_technique[s] += d;
+    }
+    for (const std::uint32_t u : near(s)) {
+      if (!(p.flags[u] & conditioned_light_technique) || !(p.light_pair(s, u) > 0)) continue;
+      p.light[s] += p.light_pair(s, u), p.terms[s] += 1;
+      if (rng.uniform<double>() < 0.7) p.light_technique[s] += p.light_pair(s, u);
+    }
+    // The rest of D (camera side): zero for some light-born segments.
+    const bool no_rest = (p.flags[s] & conditioned_light_born) && rng.uniform<double>() < 0.4;
+    p.density[s] = p.light[s] + (no_rest ? 0.0 : 0.05 + rng.uniform<double>());
+  }
+}
+
+/// The conditioned weight of one chain, written out (header comment of path_conditioned.hpp).
+double chain_weight(const RandomSides& p, const std::vector<std::uint32_t>& chain) {
+  const std::size_t k = chain.size();
+  auto ql = [&](std::size_t a) {  // q_l(s_a | s_{a+1}), 0 unless s_{a+1} is a potential light technique
+    return (p.flags[chain[a + 1]] & conditioned_potential) ? p.light_pair(chain[a], chain[a + 1]) : 0.0;
+  };
+  auto other_terms = [&](std::size_t a) {  // positive terms of D_l(s_a) without s_{a+1}
+    const bool excluded = (p.flags[chain[a + 1]] & conditioned_light_technique) && ql(a) > 0;
+    return p.terms[chain[a]] - (excluded ? 1u : 0u);
+  };
+  std::vector<bool> e(k);
+  e[k - 1] = p.light[chain[k - 1]] > 0;
+  for (std::size_t a = k - 1; a-- > 0;) e[a] = other_terms(a) > 0 || (ql(a) > 0 && e[a + 1]);
+  double w = 1;
+  for (std::size_t a = 0; a < k; ++a) {
+    const std::uint32_t s = chain[a];
+    const bool light_born = p.flags[s] & conditioned_light_born;
+    if (a > 0 && (p.flags[chain[a - 1]] & conditioned_light_born) && other_terms(a - 1) == 0) {
+      w *= light_born && (p.flags[s] & conditioned_light_technique) && p.light_technique[s] > 0 ? 1 / p.light_technique[s] : 0.0;
+    } else if (a == k - 1) {
+      w *= p.density[s] > 0 ? 1 / p.density[s] : 0.0;
+    } else {
+      const bool excluded = (p.flags[chain[a + 1]] & conditioned_light_technique) && ql(a) > 0;
+      const double light_other = other_terms(a) > 0 ? std::max(0.0, p.light[s] - (excluded ? ql(a) : 0.0)) : 0.0;
+      const double lambda = light_other + ql(a);
+      const double g = std::max(0.0, p.density[s] - p.light[s]) + (e[a] ? lambda : 0.0);
+      if (light_born) w *= e[a] && g > 0 && p.light[s] > 0 ? lambda / (g * p.light[s]) : 0.0;
+      else w *= g > 0 ? 1 / g : 0.0;
+    }
+  }
+  return w;
+}
+
+/// Sum over every chain of at most depth + 1 segments starting with s of
+/// prod (K f_r G) L_e(last) x chain_weight.
+template <class Near, class Kernel>
+double naive(const RandomSides& p, std::uint32_t s, int depth, const Near& near, const Kernel& kernel) {
+  std::vector<std::uint32_t> chain{s};
+  std::function<double(double, int)> walk = [&](double throughput, int left) -> double {
+    double sum = throughput * p.emitted[chain.back()] * chain_weight(p, chain);
+    if (left == 0) return sum;
+    const std::uint32_t last = chain.back();
+    for (const std::uint32_t sp : near(last)) {
+      if (!(p.geometry[sp] > 0)) continue;
+      chain.push_back(sp);
+      sum += walk(throughput * p.link(last, sp) * kernel(last) * p.geometry[sp], left - 1);
+      chain.pop_back();
+    }
+    return sum;
+  };
+  return walk(1.0, depth);
+}
+
+struct TwoThreads {
+  template <class Body>
+  void operator()(std::size_t n, Body&& body) const {
+    std::thread other([&] {
+      for (std::size_t i = 1; i < n; i += 2) body(i);
+    });
+    for (std::size_t i = 0; i < n; i += 2) body(i);
+    other.join();
+  }
+};
+
+}  // namespace
+
+TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 400 random pools", "[propagation]") {
+  Pcg32 rng(2026, 11);
+  int compared = 0, nontrivial = 0, forced_light = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    RandomSides p = make_sides(rng);
+    const bool disk = trial % 2 == 1;
+    Clustering<double> clustering;
+    DiskJunctions<double> junctions;
+    std::vector<std::vector<std::uint32_t>> near(p.n);
+    std::vector<double> kernel(p.n, 0);
+    if (disk) {
+      junctions.build(0.6, p.segments);
+      for (std::uint32_t s = 0; s < p.n; ++s) {
+        const auto span = junctions.starting_near(s);
+        near[s].assign(span.begin(), span.end());
+        kernel[s] = junctions.kernel();
+      }
+    } else {
+      clustering.build(VoxelGrid<double>(0.8, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)), p.segments);
+      for (std::uint32_t s = 0; s < p.n; ++s) {
+        const std::uint32_t c = clustering.cluster_of_y(s);
+        if (c == no_cluster) continue;
+        const Cluster<double>& cl = clustering.clusters()[c];
+        for (std::uint32_t r = cl.begin; r < cl.middle; ++r) near[s].push_back(clustering.refs()[r].segment);
+        kernel[s] = cl.kernel;
+      }
+    }
+    auto near_of = [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; };
+    finish_densities(p, rng, near_of);
+    auto link = [&](std::uint32_t s, std::uint32_t sp) { return p.link(s, sp); };
+    auto light_pair = [&](std::uint32_t s, std::uint32_t sp) { return p.light_pair(s, sp); };
+    const ConditionedInputs<double, decltype(link), decltype(light_pair)> inputs{
+        p.emitted, p.geometry, p.density, p.light, p.terms, p.light_technique, p.flags, link, light_pair};
+    const int depth = 1 + int(rng.next_u32() % 4);
+    std::vector<double> result, threaded;
+    if (disk) {
+      propagate_conditioned(junctions, inputs, depth, result);
+      propagate_conditioned(junctions, inputs, depth, threaded, TwoThreads{});
+    } else {
+      propagate_conditioned(clustering, inputs, depth, result);
+      propagate_conditioned(clustering, inputs, depth, threaded, TwoThreads{});
+    }
+    if (!disk) {
+      // The slot forms of link and light_pair are called with the slots of s and s'.
+      struct SlotLink {
+        const RandomSides& p;
+        const Clustering<double>& clustering;
+        int* wrong;
+        double operator()(std::uint32_t s, std::uint32_t sp, std::uint32_t i, std::uint32_t j) const {
+          *wrong += clustering.ending_segments()[i] != s || clustering.starting_segments()[j] != sp;
+          return p.link(s, sp);
+        }
+      };
+      struct SlotLightPair {
+        const RandomSides& p;
+        const Clustering<double>& clustering;
+        int* wrong;
+        double operator()(std::uint32_t s, std::uint32_t sp) const { return p.light_pair(s, sp); }
+        double operator()(std::uint32_t s, std::uint32_t sp, std::uint32_t i, std::uint32_t j) const {
+          *wrong += clustering.ending_segments()[i] != s || clustering.starting_segments()[j] != sp;
+          return p.light_pair(s, sp);
+        }
+      };
+      int wrong = 0;
+      const ConditionedInputs<double, SlotLink, SlotLightPair> slot_inputs{
+          p.emitted,         p.geometry, p.density, p.light, p.terms, p.light_technique, p.flags, SlotLink{p, clustering, &wrong},
+          SlotLightPair{p, clustering, &wrong}};
+      std::vector<double> by_slot;
+      propagate_conditioned(clustering, slot_inputs, depth, by_slot);
+      CHECK(wrong == 0);
+      CHECK(by_slot == result);
+    }
+    for (std::uint32_t s = 0; s < p.n; ++s) {
+      const double reference = naive(p, s, depth, near_of, [&](std::uint32_t t) { return kernel[t]; });
+      CHECK(result[s] == Approx(reference).epsilon(1e-12).margin(1e-300));
+      CHECK(threaded[s] == result[s]);
+      ++compared;
+      const double own = p.density[s] > 0 ? p.emitted[s] / p.density[s] : 0.0;
+      if (reference != own) ++nontrivial;
+      for (const std::uint32_t sp : near[s])
+        forced_light += (p.flags[s] & conditioned_light_born) && (p.flags[sp] & conditioned_light_technique) &&
+                        p.terms[s] == 1 && p.light_pair(s, sp) > 0 && p.geometry[sp] > 0;
+    }
+  }
+  CHECK(compared > 2000);
+  CHECK(nontrivial > compared / 4);
+  CHECK(forced_light > 50);  // the forced branch is exercised
+}
+
+TEST_CASE("path-conditioned propagation rejects inputs of different sizes", "[propagation]") {
+  std::vector<Segment<double>> segments(2, Segment<double>{SurfacePoint<double>::on_surface({0, 0, 0}, {0, 0, 1}),
+                                                           SurfacePoint<double>::on_surface({0.1, 0, 0}, {0, 0, 1})});
+  Clustering<double> clustering;
+  clustering.build(VoxelGrid<double>(1.0), segments);
+  std::vector<double> two(2, 1.0), one(1, 1.0);
+  std::vector<std::uint32_t> terms(2, 1);
+  std::vector<std::uint8_t> flags(2, 0);
+  auto link = [](std::uint32_t, std::uint32_t) { return 0.5; };
+  auto light_pair = [](std::uint32_t, std::uint32_t) { return 0.0; };
+  std::vector<double> out;
+  const ConditionedInputs<double, decltype(link), decltype(light_pair)> bad{two, two, two, one, terms, two, flags, link, light_pair};
+  CHECK_THROWS_AS(propagate_conditioned(clustering, bad, 2, out), std::invalid_argument);
+  const ConditionedInputs<double, decltype(link), decltype(light_pair)> good{two, two, two, two, terms, two, flags, link, light_pair};
+  CHECK_THROWS_AS(propagate_conditioned(clustering, good, 0, out), std::invalid_argument);
+  CHECK_NOTHROW(propagate_conditioned(clustering, good, 2, out));
+}
+
+TEST_CASE("path-conditioned propagation: factorised clusters give the general sum", "[propagation]") {
+  Pcg32 rng(2026, 12);
+  int factorised_clusters = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    RandomSides p = make_sides(rng);
+    Clustering<double> clustering;
+    clustering.build(VoxelGrid<double>(0.8, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)), p.segments);
+    // Every other cluster factorises: link(s, s') = diffuse[s], q_l(s | s') = a constant of s.
+    std::vector<std::uint8_t> factorised(clustering.clusters().size(), 0);
+    std::vector<double> diffuse(p.n), light_of(p.n);
+    for (std::size_t c = 0; c < factorised.size(); ++c) factorised[c] = (c + std::size_t(trial)) % 2;
+    std::vector<std::vector<std::uint32_t>> near(p.n);
+    for (std::uint32_t s = 0; s < p.n; ++s) {
+      diffuse[s] = 0.2 + rng.uniform<double>() * 0.5;
+      light_of[s] = rng.uniform<double>() < 0.2 ? 0.0 : rng.uniform<double>();
+      const std::uint32_t c = clustering.cluster_of_y(s);
+      if (c == no_cluster) continue;
+      const Cluster<double>& cl = clustering.clusters()[c];
+      for (std::uint32_t r = cl.begin; r < cl.middle; ++r) near[s].push_back(clustering.refs()[r].segment);
+      if (!factorised[c]) continue;
+      for (const std::uint32_t sp : near[s]) {
+        p.link_table[s * p.n + sp] = diffuse[s];
+        p.light_table[s * p.n + sp] = light_of[s];
+      }
+      factorised_clusters += s == clustering.refs()[cl.middle].segment;
+    }
+    finish_densities(p, rng, [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; });
+    auto link = [&](std::uint32_t s, std::uint32_t sp) { return p.link(s, sp); };
+    auto light_pair = [&](std::uint32_t s, std::uint32_t sp) { return p.light_pair(s, sp); };
+    const ConditionedInputs<double, decltype(link), decltype(light_pair)> inputs{
+        p.emitted, p.geometry, p.density, p.light, p.terms, p.light_technique, p.flags, link, light_pair};
+    const int depth = 1 + int(rng.next_u32() % 4);
+    std::vector<double> general, fast;
+    propagate_conditioned(clustering, inputs, depth, general);
+    propagate_conditioned(clustering, inputs, depth, fast, SerialFor{}, std::span<const std::uint8_t>(factorised),
+                          std::span<const double>(diffuse));
+    for (std::uint32_t s = 0; s < p.n; ++s) CHECK(fast[s] == Approx(general[s]).epsilon(1e-12).margin(1e-300));
+  }
+  CHECK(factorised_clusters > 300);
+}
