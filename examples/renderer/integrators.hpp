@@ -53,7 +53,7 @@ struct MethodOptions {
   std::size_t max_length = 10;  ///< segments per path, the camera segment included
   std::optional<double> radius;  ///< kernel radius (VCM family) or voxel size (filtering); unset: method default
   std::optional<double> alpha;   ///< progressive reduction, in (0, 1); unset: 0.75 (VCM family), 0.67 (filtering)
-  std::optional<double> beta;    ///< light paths per camera path (> 0); unset: 1 (VCM family), 0.25 (filtering)
+  std::optional<double> beta;    ///< light paths per camera path (> 0); unset: 1
   segpath::FilteringSupport support = segpath::FilteringSupport::voxel;  ///< filtering: junction support
   bool bridges = false;          ///< bdpf: add bridge segments
   bool next_event = false;       ///< mvf, bdpf: add next-event segments
@@ -343,7 +343,8 @@ class VcmMethod {
 
 /// MVF, PhF and BDPF (segpath::SegmentFiltering): approximate sequential segments pooled per
 /// iteration, voxel clusters (or disks of the same area, --support disk) of --radius (default 4x the average pixel footprint) shrinking by
-/// --alpha (default 0.67), beta x #pixels light paths (default 0.25), MMIS weights and
+/// --alpha (default 0.67), beta x #pixels light paths (default 1: BDPF's best at equal time on
+/// box 1, docs/figures.md), MMIS weights and
 /// propagation (the paper's Algorithm 1); BDPF optionally with bridge segments (--bridges), MVF
 /// and BDPF with next-event segments (--next-event; PhF has no camera technique points).
 template <segpath::FilteringMode Mode>
@@ -376,7 +377,7 @@ class FilteringMethod {
     segpath::FilteringOptions<T> f;
     f.mode = Mode;
     f.max_length = o.max_length;
-    f.light_path_ratio = T(o.beta.value_or(0.25));
+    f.light_path_ratio = T(o.beta.value_or(1.0));
     f.initial_cell_size = T(o.radius.value_or(0.0));
     f.alpha = T(o.alpha.value_or(0.67));
     f.seed = o.seed;

@@ -277,7 +277,7 @@ int main(int argc, char** argv) {
       ->check(positive_finite);
   app.add_option("--alpha", o.alpha, "progressive kernel shrinking, in (0, 1); default 0.75 (vcm family), 0.67 (filtering)")
       ->check(open_unit_interval);
-  app.add_option("--beta", o.beta, "light paths per camera path, > 0; default 1 (vcm family), 0.25 (filtering)")
+  app.add_option("--beta", o.beta, "light paths per camera path, > 0; default 1")
       ->check(positive_finite);
   app.add_option("--support", o.support, "mvf/phf/bdpf: kernel support of the junctions, voxel (the paper's) or disk")
       ->check(CLI::IsMember({"voxel", "disk"}))
