@@ -22,7 +22,8 @@
 //            + K_C(y) sum_{light technique samples t starting in C(y)} p_w(-s^ | x_t, s_t) |n_x . s^| / d^2
 //            [+ K_C(x) n_cam(C(x)) p_L(y | x) with next-event segments],
 //     with the voxel kernel K_C = 1 / (area of the cluster's mean plane in the voxel). Dirac
-//     light ends (point lights, the sun) only light sampling can produce: D = N_L p_L;
+//     light ends (point lights, the sun) only light sampling can produce: D = N_L p_L (plus
+//     the next-event term);
 //  5. propagation over clusters, max_length - 1 Jacobi iterations, from L_e;
 //  6. gather: pixel p += W G L(s_1) / D(s_1) over its sensor segments.
 // BDPF weights a chain path-conditioned by default (FilteringWeighting): the paper's prod_i
@@ -30,7 +31,8 @@
 // a path neighbour as a technique sample only when it was born on the matching side); the
 // path-conditioned weight is a forward-Markov MIS over the chain's side patterns (derivation in
 // propagation/path_conditioned.hpp), with D split into its light side D_l (light start and
-// light predecessors, light_side()) and the rest, and one pair density q_l(s | s')
+// light predecessors; compute_densities() with a LightSide, light_side() on disks) and the
+// rest, and one pair density q_l(s | s')
 // (light_pair_density()). Steps 5-6 then propagate four values per segment.
 // Options beyond the paper's defaults: the disk support (every start within r of an end joins
 // it, K = 1 / (pi r^2), pi r^2 = h^2) instead of voxel clusters, and for BDPF bridge segments
@@ -64,7 +66,9 @@
 //    drawn), O(1 / technique samples per cluster); bridge segments' density is taken as it is
 //    (its target count includes the path neighbours); it costs ~2.4x the paper's propagation
 //    on box 1, 1.5x its iteration (four values per segment, one more BSDF pdf per junction);
-//    it reads light path depths from the pool order (build_pool keeps light paths contiguous)
+//    it reads light path depths from the pool order (build_pool keeps light paths contiguous;
+//    a light-born chain counts as one segment there, while trace_light_path counts its delta
+//    bounces against max_length, so D_lt is approximate for chains near max_length)
 //    and takes every segment not camera-born nor a bridge as light-born (light_side_start).
 // Beyond the paper: a cluster whose camera (light) technique points are all Lambertian with
 // one shading normal has technique densities independent of the technique sample, so its sum
