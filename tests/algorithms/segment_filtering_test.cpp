@@ -235,13 +235,15 @@ void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, d
     Clustering<double> clustering;
     filter.cluster(scene, filter.grid(cell, 2), pool, clustering);
     FilteringStats stats;
-    filter.compute_densities(scene, pool, clustering, stats, SerialFor{});
+    typename Filter::LightSide side;  // the path-conditioned weighting's light side, computed alongside
+    filter.compute_densities(scene, pool, clustering, stats, SerialFor{}, &side);
     auto kernel = [&](std::uint32_t end, std::uint32_t start) {
       const std::uint32_t c = clustering.cluster_of_y(end);
       return c != no_cluster && c == clustering.cluster_of_x(start) ? clustering.clusters()[c].kernel : 0.0;
     };
     INFO("bridges " << bridges << ", next-event " << next_event << ", factorise " << factorise);
     const auto [checked, with_techniques] = testing::check_denominators(filter, scene, pool, kernel);
+    testing::check_light_side(filter, scene, pool, side, kernel);
     CHECK(checked > 500);
     CHECK(with_techniques > checked / 4);  // the pools exercise clusters with several technique samples
     if (bridges) {

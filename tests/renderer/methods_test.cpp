@@ -335,7 +335,8 @@ TEST_CASE("BDPF denominators on box 1 count chains from both sides and next-even
   segpath::Clustering<float> clustering;
   filter.cluster(scene, filter.grid(0.3f, 1), pool, clustering);
   segpath::FilteringStats stats;
-  filter.compute_densities(scene, pool, clustering, stats, segpath::SerialFor{});
+  Filter::LightSide side;
+  filter.compute_densities(scene, pool, clustering, stats, segpath::SerialFor{}, &side);
   std::size_t camera_chains = 0, light_chains = 0;
   for (std::size_t i = 0; i < pool.size(); ++i) {
     if (!(pool.flags[i] & Filter::chain_segment)) continue;
@@ -349,6 +350,7 @@ TEST_CASE("BDPF denominators on box 1 count chains from both sides and next-even
     return c != segpath::no_cluster && c == clustering.cluster_of_x(start) ? double(clustering.clusters()[c].kernel) : 0.0;
   };
   const auto [checked, with_techniques] = segpath::testing::check_denominators(filter, scene, pool, kernel);
+  segpath::testing::check_light_side(filter, scene, pool, side, kernel);
   CHECK(checked == pool.size());
   CHECK(with_techniques > checked / 10);
 }

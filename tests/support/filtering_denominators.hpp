@@ -99,4 +99,57 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
   return {checked, with_techniques};
 }
 
+/// The light side of every denominator for the path-conditioned weighting (SegmentFiltering::
+/// LightSide), recomputed by enumeration: D_l(s) = light start + every light technique sample
+/// whose start lies in y_s's support, its number of positive terms, and D_lt(s), the terms of
+/// samples u whose drawn segment would itself try a predecessor (depth(u) + 2 < max_length,
+/// depth counted along Pool::parent from the light start). Same tolerances as above.
+template <class Filter, class Scn, class Side, class Kernel>
+void check_light_side(const Filter& filter, const Scn& scene, const typename Filter::Pool& pool, const Side& side,
+                      const Kernel& kernel) {
+  using T = typename Scn::Scalar;
+  const double tolerance = std::is_same_v<T, double> ? 1e-12 : 1e-4;
+  const auto& bsdf = scene.bsdf();
+  const double n_light = double(filter.light_path_count(scene));
+  std::vector<std::uint32_t> depth(pool.size(), 0);
+  for (std::uint32_t i = 0; i < pool.size(); ++i) {
+    if (pool.flags[i] & Filter::camera_born) continue;
+    if (pool.flags[i] & Filter::light_start) depth[i] = 1;
+    else if (pool.parent[i] != Filter::no_parent) depth[i] = depth[pool.parent[i]] + 1;  // parents come first
+  }
+  for (std::uint32_t s = 0; s < pool.size(); ++s) {
+    const auto& seg = pool.segments[s];
+    const auto f = pool.flags[s];
+    const bool chain = (f & Filter::chain_segment) != 0;
+    const bool on_surface = seg.x.kind == PointKind::surface;
+    const bool light_drawable = !(f & (Filter::transmission_chain | Filter::delta_light)) && on_surface;
+    const double to_segment_measure =
+        chain ? double(std::abs(glm::dot(seg.x.normal, pool.first_direction[s]))) / double(std::abs(glm::dot(seg.y.normal, pool.last_direction[s])))
+              : double(solid_angle_to_area(T(1), seg.y, seg.x));
+    double dl = 0, dlt = 0;
+    std::uint32_t terms = 0;
+    if (on_surface && (!chain || (light_drawable && seg.y.kind == PointKind::surface))) {
+      const auto e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{seg.y, -pool.last_direction[s]});
+      const double start = n_light * double(e.position) * double(e.direction) * to_segment_measure;
+      if (start > 0) {
+        dl += start, dlt += filter.options().max_length > 2 ? start : 0.0;
+        ++terms;
+      }
+    }
+    if (light_drawable)
+      for (std::uint32_t u = 0; u < pool.size(); ++u) {
+        if (!(pool.flags[u] & Filter::light_technique)) continue;
+        const double q = kernel(s, u) * to_segment_measure *
+                         double(bsdf.pdf(BsdfQuery<T>{pool.segments[u].x, -pool.last_direction[s], pool.first_direction[u], Transport::importance}));
+        if (!(q > 0)) continue;
+        dl += q;
+        ++terms;
+        if (std::size_t(depth[u]) + 2 < filter.options().max_length) dlt += q;
+      }
+    CHECK(double(side.density[s]) == Approx(dl).epsilon(tolerance).margin(1e-300));
+    CHECK(side.terms[s] == terms);
+    if (pool.flags[s] & Filter::light_technique) CHECK(double(side.technique_density[s]) == Approx(dlt).epsilon(tolerance).margin(1e-300));
+  }
+}
+
 }  // namespace segpath::testing
