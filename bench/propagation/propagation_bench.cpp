@@ -15,6 +15,7 @@
 #include <segpath/estimators/recursive_mmis.hpp>
 #include <segpath/sensors/pinhole_camera.hpp>
 #include <segpath/testing/periodic_slab.hpp>
+#include <segpath/testing/two_threads.hpp>
 
 #include <benchmark/benchmark.h>
 
@@ -179,18 +180,6 @@ void BM_naive_vs_propagation(benchmark::State& state) {
 }
 BENCHMARK(BM_naive_vs_propagation)->Arg(1)->Arg(0)->Unit(benchmark::kMicrosecond);
 
-/// Two threads, odd and even indices (a std::thread per call).
-struct TwoThreads {
-  template <class Body>
-  void operator()(std::size_t n, Body&& body) const {
-    std::thread other([&] {
-      for (std::size_t i = 1; i < n; i += 2) body(i);
-    });
-    for (std::size_t i = 0; i < n; i += 2) body(i);
-    other.join();
-  }
-};
-
 void BM_clustering_build(benchmark::State& state) {
   // Voxel size ~ 4 pixel footprints, as in BDPF; range(1): 0 std::sort, 1 radix; range(2): threads.
   const std::uint32_t side = side_for(double(state.range(0)));
@@ -204,7 +193,7 @@ void BM_clustering_build(benchmark::State& state) {
   const bool two_threads = state.range(2) == 2;
   for (auto _ : state) {
     if (two_threads)
-      clustering.build(grid, std::span<const Segment<T>>(pool.segments), Filter::canonical_map(scene), TwoThreads{});
+      clustering.build(grid, std::span<const Segment<T>>(pool.segments), Filter::canonical_map(scene), segpath::testing::TwoThreadFor{});
     else
       clustering.build(grid, std::span<const Segment<T>>(pool.segments), Filter::canonical_map(scene), SerialFor{});
     benchmark::DoNotOptimize(clustering.clusters().data());

@@ -8,6 +8,7 @@
 #include <segpath/testing/periodic_slab.hpp>
 #include <segpath/testing/sphere_interior.hpp>
 #include <segpath/testing/statistics.hpp>
+#include <segpath/testing/two_threads.hpp>
 
 #include <algorithm>
 #include <thread>
@@ -40,18 +41,6 @@ class PhotographedSlab : public testing::PeriodicSlab<T> {
     return PinholeCamera<T>(c);
   }
   PinholeCamera<T> camera_;
-};
-
-/// Runs `work(i)` for i in [0, n) on two threads.
-struct TwoThreads {
-  template <class Body>
-  void operator()(std::size_t n, Body&& body) const {
-    std::thread other([&] {
-      for (std::size_t i = 1; i < n; i += 2) body(i);
-    });
-    for (std::size_t i = 0; i < n; i += 2) body(i);
-    other.join();
-  }
 };
 
 const testing::PeriodicSlabParameters<double> furnace{1.0, 2.0, 0.7, 0.4, 0.5, 0.6};
@@ -114,7 +103,7 @@ TEST_CASE("segment filtering: the image does not depend on the thread count", "[
   Framebuffer<double> a(8, 8), b(8, 8);
   DropCounters drops;
   bdpf.render_iteration(scene, 3, 0.3, a, drops, SerialFor{});
-  bdpf.render_iteration(scene, 3, 0.3, b, drops, TwoThreads{});
+  bdpf.render_iteration(scene, 3, 0.3, b, drops, segpath::testing::TwoThreadFor{});
   for (std::uint32_t p = 0; p < 64; ++p) CHECK(a[p] == b[p]);
 }
 
@@ -340,7 +329,7 @@ TEST_CASE("segment filtering: disk support, bridges and next-event segments do n
     Framebuffer<double> a(8, 8), b(8, 8);
     DropCounters drops;
     const auto stats = bdpf.render_iteration(scene, 3, 0.3, a, drops, SerialFor{});
-    bdpf.render_iteration(scene, 3, 0.3, b, drops, TwoThreads{});
+    bdpf.render_iteration(scene, 3, 0.3, b, drops, segpath::testing::TwoThreadFor{});
     INFO(to_string(support));
     CHECK(stats.bridge_segments > 0);
     CHECK(stats.next_event_segments > 0);

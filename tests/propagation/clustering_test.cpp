@@ -1,5 +1,6 @@
 // Voxel keys, the voxel kernel's clipped-plane area, and clusters as runs of equal keys.
 #include <segpath/propagation/clustering.hpp>
+#include <segpath/testing/two_threads.hpp>
 
 #include <algorithm>
 #include <map>
@@ -11,17 +12,6 @@
 using namespace segpath;
 
 namespace {
-
-struct TwoThreads {
-  template <class Body>
-  void operator()(std::size_t n, Body&& body) const {
-    std::thread other([&] {
-      for (std::size_t i = 1; i < n; i += 2) body(i);
-    });
-    for (std::size_t i = 0; i < n; i += 2) body(i);
-    other.join();
-  }
-};
 
 /// A random pool: positions in offset + [-extent, extent]^3 with any of the six normal bins, a
 /// fraction of non-surface ends, and a fraction of ends copied from earlier segments (equal keys).
@@ -255,7 +245,7 @@ TEMPLATE_TEST_CASE("radix-sorted clusters equal std::sort's, with 1 or 2 threads
       Clustering<T> serial, threaded, comparison;
       serial.build(grid, segments);
       threaded.build(grid, std::span<const Segment<T>>(segments), [](const SurfacePoint<T>& p) { return p.position; },
-                     TwoThreads{});
+                     segpath::testing::TwoThreadFor{});
       comparison.force_comparison_sort(true);
       comparison.build(grid, segments);
       CHECK(serial.last_sort() == k.sort);

@@ -3,6 +3,7 @@
 // propagation over them equals the naive recursion (N39) with the disk kernel (N19).
 #include <segpath/propagation/disk_junctions.hpp>
 #include <segpath/propagation/propagate.hpp>
+#include <segpath/testing/two_threads.hpp>
 
 #include <thread>
 #include <vector>
@@ -34,17 +35,6 @@ bool joined(const Segment<double>& s, const Segment<double>& sp, double r) {
   return glm::dot(d, d) < r * r && glm::dot(s.y.normal, sp.x.normal) >= 0.5 - 1e-12;
 }
 
-struct TwoThreads {
-  template <class Body>
-  void operator()(std::size_t n, Body&& body) const {
-    std::thread other([&] {
-      for (std::size_t i = 1; i < n; i += 2) body(i);
-    });
-    for (std::size_t i = 0; i < n; i += 2) body(i);
-    other.join();
-  }
-};
-
 const auto identity = [](const SurfacePoint<double>& p) { return p.position; };
 
 }  // namespace
@@ -55,7 +45,7 @@ TEST_CASE("disk junctions are exactly the pairs within r with agreeing normals",
     const auto segments = random_segments(rng, 5000);
     DiskJunctions<double> serial, threaded;
     serial.build(r, std::span<const Segment<double>>(segments), identity);
-    threaded.build(r, std::span<const Segment<double>>(segments), identity, 0.5, TwoThreads{});
+    threaded.build(r, std::span<const Segment<double>>(segments), identity, 0.5, segpath::testing::TwoThreadFor{});
     CHECK(serial.kernel() == Approx(1 / (pi<double> * r * r)));
     std::size_t pairs = 0;
     std::vector<std::vector<std::uint32_t>> ending(segments.size());

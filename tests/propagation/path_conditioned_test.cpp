@@ -2,6 +2,7 @@
 // conditioned weight of propagation/path_conditioned.hpp written out per chain, on random small
 // pools over voxel clusters and disks, and does not depend on the number of threads.
 #include <segpath/propagation/path_conditioned.hpp>
+#include <segpath/testing/two_threads.hpp>
 
 #include <algorithm>
 #include <functional>
@@ -127,17 +128,6 @@ double naive(const RandomSides& p, std::uint32_t s, int depth, const Near& near,
   return walk(1.0, depth);
 }
 
-struct TwoThreads {
-  template <class Body>
-  void operator()(std::size_t n, Body&& body) const {
-    std::thread other([&] {
-      for (std::size_t i = 1; i < n; i += 2) body(i);
-    });
-    for (std::size_t i = 0; i < n; i += 2) body(i);
-    other.join();
-  }
-};
-
 }  // namespace
 
 TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 400 random pools", "[propagation]") {
@@ -177,10 +167,10 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
     std::vector<double> result, threaded;
     if (disk) {
       propagate_conditioned(junctions, inputs, depth, result);
-      propagate_conditioned(junctions, inputs, depth, threaded, TwoThreads{});
+      propagate_conditioned(junctions, inputs, depth, threaded, segpath::testing::TwoThreadFor{});
     } else {
       propagate_conditioned(clustering, inputs, depth, result);
-      propagate_conditioned(clustering, inputs, depth, threaded, TwoThreads{});
+      propagate_conditioned(clustering, inputs, depth, threaded, segpath::testing::TwoThreadFor{});
     }
     if (!disk) {
       // The slot forms of link and light_pair are called with the slots of s and s'.
