@@ -24,6 +24,13 @@ struct RandomSides {
   std::size_t n = 0;
   [[nodiscard]] double link(std::uint32_t s, std::uint32_t sp) const { return link_table[s * n + sp]; }
   [[nodiscard]] double light_pair(std::uint32_t s, std::uint32_t sp) const { return light_table[s * n + sp]; }
+  /// The propagation inputs over these tables.
+  [[nodiscard]] auto inputs() const {
+    auto by_link = [this](std::uint32_t s, std::uint32_t sp) { return link(s, sp); };
+    auto by_light_pair = [this](std::uint32_t s, std::uint32_t sp) { return light_pair(s, sp); };
+    return ConditionedInputs<double, decltype(by_link), decltype(by_light_pair)>{
+        emitted, geometry, density, light, terms, light_technique, flags, by_link, by_light_pair};
+  }
 };
 
 /// Random sides and densities; D_l(s) sums the light technique samples among `near(s)` (the
@@ -159,10 +166,7 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
     }
     auto near_of = [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; };
     finish_densities(p, rng, near_of);
-    auto link = [&](std::uint32_t s, std::uint32_t sp) { return p.link(s, sp); };
-    auto light_pair = [&](std::uint32_t s, std::uint32_t sp) { return p.light_pair(s, sp); };
-    const ConditionedInputs<double, decltype(link), decltype(light_pair)> inputs{
-        p.emitted, p.geometry, p.density, p.light, p.terms, p.light_technique, p.flags, link, light_pair};
+    const auto inputs = p.inputs();
     const int depth = 1 + int(rng.next_u32() % 4);
     std::vector<double> result, threaded;
     if (disk) {
@@ -264,10 +268,7 @@ TEST_CASE("path-conditioned propagation: factorised clusters give the general su
       factorised_clusters += s == clustering.refs()[cl.middle].segment;
     }
     finish_densities(p, rng, [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; });
-    auto link = [&](std::uint32_t s, std::uint32_t sp) { return p.link(s, sp); };
-    auto light_pair = [&](std::uint32_t s, std::uint32_t sp) { return p.light_pair(s, sp); };
-    const ConditionedInputs<double, decltype(link), decltype(light_pair)> inputs{
-        p.emitted, p.geometry, p.density, p.light, p.terms, p.light_technique, p.flags, link, light_pair};
+    const auto inputs = p.inputs();
     const int depth = 1 + int(rng.next_u32() % 4);
     std::vector<double> general, fast;
     propagate_conditioned(clustering, inputs, depth, general);

@@ -64,6 +64,18 @@ TEST_CASE("propagation equals the naive recursive MMIS estimator on 1000 random 
   CHECK(nontrivial > compared / 4);
 }
 
+namespace {
+
+/// In factorised clusters the link depends on the ending segment only: diffuse[s].
+auto factorised_link(const RandomPool& pool, const Clustering<double>& clustering, const std::vector<std::uint8_t>& factorised) {
+  return [&pool, &clustering, &factorised](std::uint32_t s, std::uint32_t sp) {
+    const std::uint32_t c = clustering.cluster_of_y(s);
+    return c != no_cluster && factorised[c] ? pool.diffuse[s] : pool.link_table[s * pool.n + sp];
+  };
+}
+
+}  // namespace
+
 TEST_CASE("factorised clusters give the same radiance as the general O(n m) sum", "[propagation]") {
   Pcg32 rng(77, 6);
   for (int trial = 0; trial < 300; ++trial) {
@@ -72,11 +84,7 @@ TEST_CASE("factorised clusters give the same radiance as the general O(n m) sum"
     clustering.build(VoxelGrid<double>(1.0), pool.segments);
     std::vector<std::uint8_t> factorised(clustering.clusters().size());
     for (auto& f : factorised) f = rng.uniform<double>() < 0.6 ? 1 : 0;
-    // In factorised clusters the link depends on the ending segment only.
-    auto link = [&](std::uint32_t s, std::uint32_t sp) {
-      const std::uint32_t c = clustering.cluster_of_y(s);
-      return c != no_cluster && factorised[c] ? pool.diffuse[s] : pool.link_table[s * pool.n + sp];
-    };
+    const auto link = factorised_link(pool, clustering, factorised);
     const PropagationInputs<double, decltype(link)> general{clustering, pool.emitted, pool.weighted_geometry, link};
     const PropagationInputs<double, decltype(link)> fast{clustering, pool.emitted, pool.weighted_geometry, link,
                                                          pool.diffuse, factorised};
@@ -97,10 +105,7 @@ TEST_CASE("a link by slots gives the same radiance, and a prepared workspace can
     clustering.build(VoxelGrid<double>(1.0), pool.segments);
     std::vector<std::uint8_t> factorised(clustering.clusters().size());
     for (auto& f : factorised) f = rng.uniform<double>() < 0.3 ? 1 : 0;
-    auto link = [&](std::uint32_t s, std::uint32_t sp) {
-      const std::uint32_t c = clustering.cluster_of_y(s);
-      return c != no_cluster && factorised[c] ? pool.diffuse[s] : pool.link_table[s * pool.n + sp];
-    };
+    const auto link = factorised_link(pool, clustering, factorised);
     const PropagationInputs<double, decltype(link)> by_id{clustering, pool.emitted, pool.weighted_geometry, link,
                                                           pool.diffuse, factorised};
     std::vector<double> a, scratch;
