@@ -17,6 +17,7 @@
 #include <tbb/enumerable_thread_specific.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstddef>
 #include <cstdint>
 #include <optional>
@@ -59,6 +60,7 @@ struct MethodOptions {
   bool next_event = false;       ///< mvf, bdpf: add next-event segments
   /// bdpf: chain weighting, path-conditioned (unbiased) or the paper's prod 1 / D
   segpath::FilteringWeighting weighting = segpath::FilteringWeighting::path_conditioned;
+  bool print_stats = false;      ///< mvf, phf, bdpf: one line of FilteringStats per iteration on stderr
 };
 
 /// The emitter of a RenderScene by reference: PathTracer copies scene.emitter() once per
@@ -356,7 +358,7 @@ class FilteringMethod {
       : Mode == segpath::FilteringMode::phf ? "photon filtering (light segments, propagation)"
                                             : "bidirectional path filtering, the paper's method (both sides, MMIS, propagation)";
 
-  explicit FilteringMethod(const MethodOptions& o) : filter_(filtering_options(o)) {}
+  explicit FilteringMethod(const MethodOptions& o) : filter_(filtering_options(o)), print_stats_(o.print_stats) {}
 
   template <segpath::ParallelFor P>
   void render_iteration(const RenderScene& scene, std::uint64_t iteration, Accumulator& accumulate, Stats& stats,
@@ -365,8 +367,9 @@ class FilteringMethod {
     if (!initial_cell_) initial_cell_ = filter_.initial_cell_size(counting);
     if (!image_ || image_->pixel_count() != accumulate.pixel_count()) image_.emplace(accumulate.width(), accumulate.height());
     image_->clear();
-    filter_.render_iteration(counting, iteration + 1, filter_.cell_size(*initial_cell_, iteration + 1), *image_,
-                             stats.dropped, parallel);
+    const segpath::FilteringStats f = filter_.render_iteration(
+        counting, iteration + 1, filter_.cell_size(*initial_cell_, iteration + 1), *image_, stats.dropped, parallel);
+    if (print_stats_) print(iteration, f);
     stats.rays += counting.take_rays();
     stats.paths += accumulate.pixel_count();
     detail::accumulate_image(*image_, accumulate);
@@ -387,7 +390,21 @@ class FilteringMethod {
     f.weighting = o.weighting;
     return f;
   }
+  static void print(std::uint64_t iteration, const segpath::FilteringStats& f) {
+    std::fprintf(stderr,
+                 "iteration %llu: %llu segments (camera %llu, light %llu, bridge %llu, next-event %llu), %llu clusters, "
+                 "%llu pair evaluations, cell %.4g, %zu B/segment, cache %.1f MiB; seconds: paths %.3f, support %.3f, "
+                 "densities %.3f, propagation %.3f, gather %.3f\n",
+                 static_cast<unsigned long long>(iteration + 1), static_cast<unsigned long long>(f.segments),
+                 static_cast<unsigned long long>(f.camera_segments), static_cast<unsigned long long>(f.light_segments),
+                 static_cast<unsigned long long>(f.bridge_segments), static_cast<unsigned long long>(f.next_event_segments),
+                 static_cast<unsigned long long>(f.clusters ? f.clusters : f.junctions),
+                 static_cast<unsigned long long>(f.pair_evaluations), f.cell_size, f.bytes_per_segment,
+                 double(f.transfer_cache_bytes) / double(1 << 20), f.paths_seconds, f.support_seconds, f.densities_seconds,
+                 f.propagation_seconds, f.gather_seconds);
+  }
   segpath::SegmentFiltering<ThreadCountingScene> filter_;
+  bool print_stats_ = false;
   std::optional<T> initial_cell_;
   std::optional<segpath::Framebuffer<Color>> image_;
 };

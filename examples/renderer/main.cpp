@@ -52,6 +52,7 @@ struct Options {
   bool bridges = false;
   bool next_event = false;
   std::string weighting = "path";
+  bool stats = false;
   std::vector<std::string> out;
   std::optional<std::string> reference;
   // OBJ scenes only: a look-at camera ("x,y,z" vectors).
@@ -184,6 +185,7 @@ int run(const Options& o) {
   mo.bridges = o.bridges;
   mo.next_event = o.next_event;
   mo.weighting = o.weighting == "paper" ? segpath::FilteringWeighting::paper : segpath::FilteringWeighting::path_conditioned;
+  mo.print_stats = o.stats;
   auto method = renderer::make_method(o.method, mo);
   if (!method) throw std::runtime_error("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
   const renderer::RenderScene scene = load_scene(o);
@@ -288,6 +290,8 @@ int main(int argc, char** argv) {
                  "bdpf: chain weighting, path (path-conditioned, unbiased) or paper (prod 1 / D, biased)")
       ->check(CLI::IsMember({"path", "paper"}))
       ->capture_default_str();
+  app.add_flag("--stats", o.stats,
+               "mvf/phf/bdpf: print each iteration's segments, clusters, pair evaluations and stage times on stderr");
 #if SEGPATH_RENDER_HAS_OBJ
   app.add_option("--camera-position", o.camera_position, "OBJ scenes: camera position x,y,z")->capture_default_str();
   app.add_option("--camera-target", o.camera_target, "OBJ scenes: point the camera looks at, x,y,z")->capture_default_str();

@@ -182,8 +182,10 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
         const RandomSides& p;
         const Clustering<double>& clustering;
         int* wrong;
+        std::size_t* calls;
         double operator()(std::uint32_t s, std::uint32_t sp, std::uint32_t i, std::uint32_t j) const {
           *wrong += clustering.ending_segments()[i] != s || clustering.starting_segments()[j] != sp;
+          ++*calls;
           return p.link(s, sp);
         }
       };
@@ -198,13 +200,31 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
         }
       };
       int wrong = 0;
+      std::size_t calls = 0;
       const ConditionedInputs<double, SlotLink, SlotLightPair> slot_inputs{
-          p.emitted,         p.geometry, p.density, p.light, p.terms, p.light_technique, p.flags, SlotLink{p, clustering, &wrong},
+          p.emitted, p.geometry, p.density, p.light, p.terms, p.light_technique, p.flags, SlotLink{p, clustering, &wrong, &calls},
           SlotLightPair{p, clustering, &wrong}};
+      // The junctions a sweep evaluates: pairs of a cluster with a start of positive G.
+      std::size_t junctions_per_sweep = 0;
+      for (const Cluster<double>& cl : clustering.clusters())
+        for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j)
+          if (p.geometry[clustering.starting_segments()[j]] > 0) junctions_per_sweep += cl.ending_count();
       std::vector<double> by_slot;
-      propagate_conditioned(clustering, slot_inputs, depth, by_slot);
+      CHECK(propagate_conditioned(clustering, slot_inputs, depth, by_slot) == 0);  // no junction table by default
+      CHECK(calls == junctions_per_sweep * std::size_t(depth));
       CHECK(wrong == 0);
       CHECK(by_slot == result);
+      // A junction table, whole and partial (the first clusters only), gives the same numbers.
+      for (const std::size_t budget : {std::size_t(1) << 30, std::size_t(256)}) {
+        std::vector<double> tabled;
+        calls = 0;
+        const std::size_t bytes = propagate_conditioned(clustering, slot_inputs, depth, tabled, SerialFor{}, {}, {}, budget);
+        CHECK(bytes <= budget);
+        if (budget > bytes + (std::size_t(1) << 20)) CHECK(calls == junctions_per_sweep);  // whole: once per junction
+        else CHECK(calls <= junctions_per_sweep * std::size_t(depth));
+        CHECK(wrong == 0);
+        CHECK(tabled == result);
+      }
     }
     for (std::uint32_t s = 0; s < p.n; ++s) {
       const double reference = naive(p, s, depth, near_of, [&](std::uint32_t t) { return kernel[t]; });

@@ -90,6 +90,7 @@
 #include "segpath/samplers/sensor_start.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <optional>
@@ -161,9 +162,11 @@ struct FilteringOptions {
   /// of SPEC 1.6, N34, approximate: it starts exactly at y_t). A camera-side technique like the
   /// BSDF successor: its density, for every plain segment s, is K(x_s) n_cam(C(x_s)) p_L(y_s | x_s).
   bool next_event = false;
-  /// Voxel support: f_r(s, s') of the pairs of non-factorised clusters is computed once per
-  /// iteration instead of once per propagation sweep, for as many clusters (in order) as fit in
-  /// this many bytes; the others are evaluated in every sweep. 0: no cache, memory O(#segments).
+  /// Voxel support: f_r(s, s') of the pairs of non-factorised clusters (with the
+  /// path-conditioned weighting, each pair's whole junction: f_r, q_l and the weights r) is
+  /// computed once per iteration instead of once per propagation sweep, for as many clusters (in
+  /// order) as fit in this many bytes; the others are evaluated in every sweep. 0: no cache,
+  /// memory O(#segments).
   std::size_t transfer_cache_bytes = std::size_t(1) << 30;
   /// Shift the voxel grid randomly each iteration (quantisation becomes noise). Off, the grid
   /// is aligned with the origin: on a periodic domain (canonical_position) whose period is a
@@ -186,6 +189,10 @@ struct FilteringStats {
   double cell_size = 0;
   std::size_t bytes_per_segment = 0;    ///< O(#segments) memory, without the transfer cache
   std::size_t transfer_cache_bytes = 0;  ///< FilteringOptions::transfer_cache_bytes at most
+  /// Wall time of the stages of render_iteration: paths (pool), support (clusters or disk
+  /// junctions), densities (MMIS denominators, light side), propagation (with its pair
+  /// evaluations), gather (pixels).
+  double paths_seconds = 0, support_seconds = 0, densities_seconds = 0, propagation_seconds = 0, gather_seconds = 0;
 };
 
 template <LightSampledScene Scn>
@@ -260,9 +267,16 @@ class SegmentFiltering {
   template <ParallelFor P = SerialFor>
   FilteringStats render_iteration(const Scn& scene, std::uint64_t iteration, T cell, Framebuffer<S>& image,
                                   DropCounters& drops, const P& parallel_for = {}) const {
+    using Clock = std::chrono::steady_clock;
+    auto lap = [last = Clock::now()](double& seconds) mutable {
+      const auto now = Clock::now();
+      seconds = std::chrono::duration<double>(now - last).count();
+      last = now;
+    };
+    FilteringStats stats;
     Pool pool;
     build_pool(scene, iteration, pool, parallel_for);
-    FilteringStats stats;
+    lap(stats.paths_seconds);
     stats.segments = pool.size();
     stats.next_event_segments = pool.next_event_segments;
     for (auto f : pool.flags)
@@ -278,8 +292,10 @@ class SegmentFiltering {
       Clustering<T> clustering;
       cluster(scene, grid(cell, iteration), pool, clustering, parallel_for);
       stats.clusters = clustering.clusters().size();
+      lap(stats.support_seconds);
       LightSide side;
       compute_densities(scene, pool, clustering, stats, parallel_for, path_conditioned() ? &side : nullptr);
+      lap(stats.densities_seconds);
       support_bytes = clustering.bytes_per_segment();
       if (path_conditioned()) {
         propagate_conditioned_pool(scene, pool, clustering, side, iterations, radiance, weighted_geometry, stats, parallel_for);
@@ -294,11 +310,13 @@ class SegmentFiltering {
       DiskJunctions<T> junctions;
       join(scene, disk_radius(cell), pool, junctions, parallel_for);
       stats.junctions = junctions.junction_count();
+      lap(stats.support_seconds);
       compute_densities(scene, pool, junctions, stats, parallel_for);
+      LightSide side;
+      if (path_conditioned()) light_side(scene, pool, junctions, side, parallel_for);
+      lap(stats.densities_seconds);
       support_bytes = junctions.bytes_per_segment();
       if (path_conditioned()) {
-        LightSide side;
-        light_side(scene, pool, junctions, side, parallel_for);
         propagate_conditioned_pool(scene, pool, junctions, side, iterations, radiance, weighted_geometry, stats, parallel_for);
         propagation_bytes = conditioned_bytes_per_segment;
       } else {
@@ -306,6 +324,7 @@ class SegmentFiltering {
         propagation_bytes = sizeof(S);  // the second radiance buffer
       }
     }
+    lap(stats.propagation_seconds);
     for (std::size_t i = 0; i < pool.size(); ++i) {
       if (!(pool.flags[i] & sensor_segment)) continue;
       const S value = radiance[i] * (pool.sensor_weight[i] * weighted_geometry[i]);
@@ -313,6 +332,7 @@ class SegmentFiltering {
       else drops.add(DropReason::non_finite);
     }
     stats.bytes_per_segment = pool.bytes_per_segment() + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes;
+    lap(stats.gather_seconds);
     return stats;
   }
 
@@ -947,34 +967,17 @@ class SegmentFiltering {
         for (std::uint32_t i = first; i < first + cl.ending_count(); ++i)
           ending_scale[transfer.ending_record.empty() ? i : transfer.ending_record[i]] = scale[support.ending_segments()[i]];
       });
-      // f_r and q_l of the pairs that fit in the cache budget, once per pool (q_l only where
-      // propagate_conditioned reads it: s' a potential light technique).
-      struct PairTerms {
-        S f;
-        T q;
-      };
-      PairCache<PairTerms> cache;
-      struct SlotLink {
-        TransferLink transfer_link;
-        const PairCache<PairTerms>& cache;
-        S operator()(std::uint32_t s, std::uint32_t sp, std::uint32_t i, std::uint32_t j) const noexcept {
-          const PairTerms* cached = cache.find(i, j);
-          return cached ? cached->f : transfer_link(s, sp, i, j);
-        }
-      };
+      // q_l(s | s') of a general cluster's pair, by slot (propagate_conditioned calls it for
+      // potential light techniques s' only, which excludes chains through a delta transmission):
+      // light_pair_density from the copies, the same product, the same number.
       struct SlotLightPair {
         decltype(light_pair) by_id;
         decltype(std::declval<const Scn&>().bsdf()) bsdf;
         const Transfer& transfer;
         const std::vector<SurfacePoint<T>>& starting_x;
         const std::vector<T>& ending_scale;
-        const PairCache<PairTerms>* cache;
         T operator()(std::uint32_t s, std::uint32_t sp) const noexcept { return by_id(s, sp); }
-        // light_pair_density from the copies (called for potential light techniques s' only,
-        // which excludes chains through a delta transmission): the same product, the same number.
         T operator()(std::uint32_t, std::uint32_t, std::uint32_t i, std::uint32_t j) const noexcept {
-          if (cache)
-            if (const PairTerms* cached = cache->find(i, j)) return cached->q;
           const std::uint32_t ir = transfer.ending_record.empty() ? i : transfer.ending_record[i];
           const std::uint32_t jr = transfer.starting_record.empty() ? j : transfer.starting_record[j];
           const T scale_s = ending_scale[ir];
@@ -984,21 +987,13 @@ class SegmentFiltering {
           return std::isfinite(q) && q > T(0) ? q : T(0);
         }
       };
-      const TransferLink transfer_link{scene.bsdf(), transfer};
-      const SlotLightPair evaluate_q{light_pair, scene.bsdf(), transfer, starting_x, ending_scale, nullptr};
-      const auto starting_segment = support.starting_segments();
-      cache.build(
-          [&](std::uint32_t i, std::uint32_t j) {
-            const bool potential = side.flags[starting_segment[j]] & conditioned_potential;
-            return PairTerms{transfer_link(0, 0, i, j), potential ? evaluate_q(0, 0, i, j) : T(0)};
-          },
-          support, factorised, options_.transfer_cache_bytes, parallel_for);
-      stats.transfer_cache_bytes = cache.value.size() * sizeof(PairTerms);
-      const ConditionedInputs<S, SlotLink, SlotLightPair> slot_inputs{
+      const ConditionedInputs<S, TransferLink, SlotLightPair> slot_inputs{
           pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags,
-          SlotLink{transfer_link, cache}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale, &cache}};
-      propagate_conditioned(support, slot_inputs, iterations, radiance, parallel_for, std::span<const std::uint8_t>(factorised),
-                            std::span<const S>(diffuse));
+          TransferLink{scene.bsdf(), transfer}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale}};
+      // The junctions of the pairs that fit the cache budget are built once per pool.
+      stats.transfer_cache_bytes =
+          propagate_conditioned(support, slot_inputs, iterations, radiance, parallel_for, std::span<const std::uint8_t>(factorised),
+                                std::span<const S>(diffuse), options_.transfer_cache_bytes);
     }
     geometry.assign(pool.geometry.begin(), pool.geometry.end());
   }

@@ -165,16 +165,24 @@ struct ConditionedStart {
   std::uint8_t flags = 0;
 };
 
-/// Adds the junction s -> s' (transfer = K f_r(s, s') G(s')) to s's values, reading s''s
-/// values of the previous iteration (flags fp, 1 / D_lt(s') where read forced). Linear in
-/// `next`: a factorised cluster passes sums over successors of one flag class.
+/// A junction s -> s' reduced to what a sweep needs: it adds, for e' in {0, 1},
+///   c = transfer * (read_u ? U_e'(s') : W_e'(s'))   to U_state[e'](s) and c r[e'] to W_state[e'](s).
+/// Everything in it is fixed for the whole propagation, so it can be built once per pair.
 template <Spectrum S>
-SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_scalar_t<S>>& end, std::uint8_t fp, spectrum_scalar_t<S> forced_weight,
-                          const S& transfer, spectrum_scalar_t<S> ql, const ConditionedValues<S>& next,
-                          ConditionedValues<S>& acc) noexcept {
+struct ConditionedJunction {
+  S transfer;  ///< K f_r(s, s') G(s'), times 1 / D_lt(s') where s forces s'
+  std::array<spectrum_scalar_t<S>, 2> r;  ///< the r of s in the state reached from e(s') = 0, 1
+  std::uint8_t code;  ///< bit 0: s forces s' (read U); bits 1, 2: the state e(s) reached from e(s') = 0, 1
+};
+
+/// The junction s -> s' (transfer = K f_r(s, s') G(s')) for s' with flags fp and 1 / D_lt(s')
+/// (where read forced) and q_l(s | s') = ql: the r_i and e(s) rules of the header comment.
+template <Spectrum S>
+SEGPATH_FORCE_INLINE ConditionedJunction<S> conditioned_coefficients(const ConditionedEnd<spectrum_scalar_t<S>>& end, std::uint8_t fp,
+                                                                     spectrum_scalar_t<S> forced_weight, const S& transfer,
+                                                                     spectrum_scalar_t<S> ql) noexcept {
   using T = spectrum_scalar_t<S>;
-  const std::uint8_t fs = end.flags;
-  const bool light_born = fs & conditioned_light_born;
+  const bool light_born = end.flags & conditioned_light_born;
   const bool successor_technique = fp & conditioned_light_technique;
   if (!(fp & conditioned_potential)) ql = T(0);
   const bool excluded = successor_technique && ql > T(0);
@@ -183,21 +191,55 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
   const T dl_other = terms > 0 ? std::max(T(0), dl - (excluded ? ql : T(0))) : T(0);
   const bool forced = light_born && terms == 0;
   const T lambda = dl_other + ql;
-  const T rest = end.rest;
+  ConditionedJunction<S> j{forced ? transfer * forced_weight : transfer, {}, std::uint8_t(forced ? 1 : 0)};
   for (int e_next = 0; e_next < 2; ++e_next) {
-    const S v = forced ? next.u[e_next] * forced_weight : next.w[e_next];
     const int e = (terms > 0 || (ql > T(0) && e_next == 1)) ? 1 : 0;
-    const T g = rest + (e ? lambda : T(0));
+    const T g = end.rest + (e ? lambda : T(0));
     T r = T(0);
     if (light_born) {
       if (e && g > T(0) && dl > T(0)) r = lambda / (g * dl);
     } else if (g > T(0)) {
       r = T(1) / g;
     }
-    const S contribution = transfer * v;
-    acc.u[e] += contribution;
-    acc.w[e] += contribution * r;
+    j.r[e_next] = r;
+    j.code |= std::uint8_t(e << (1 + e_next));
   }
+  return j;
+}
+
+/// Adds a junction to s's values `acc`, reading s''s values `next` of the previous iteration.
+/// Linear in `next`: a factorised cluster passes sums over successors of one flag class.
+template <Spectrum S>
+SEGPATH_FORCE_INLINE void apply_junction(const ConditionedJunction<S>& j, const ConditionedValues<S>& next,
+                                         ConditionedValues<S>& acc) noexcept {
+  const std::array<S, 2>& v = (j.code & 1) ? next.u : next.w;
+  const S c0 = j.transfer * v[0], c1 = j.transfer * v[1];
+  // e(s) from e(s') = 0 is at most e(s) from e(s') = 1, so three cases; constant indices keep
+  // acc in registers (an indexed acc would chain every pair through memory).
+  switch (j.code >> 1) {
+    case 0:  // both to e(s) = 0
+      acc.u[0] += c0 + c1;
+      acc.w[0] += c0 * j.r[0] + c1 * j.r[1];
+      break;
+    case 2:  // e(s') = 0 to e(s) = 0, e(s') = 1 to e(s) = 1
+      acc.u[0] += c0;
+      acc.w[0] += c0 * j.r[0];
+      acc.u[1] += c1;
+      acc.w[1] += c1 * j.r[1];
+      break;
+    default:  // 3: both to e(s) = 1
+      acc.u[1] += c0 + c1;
+      acc.w[1] += c0 * j.r[0] + c1 * j.r[1];
+      break;
+  }
+}
+
+/// Adds the junction s -> s' to s's values (conditioned_coefficients, then apply_junction).
+template <Spectrum S>
+SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_scalar_t<S>>& end, std::uint8_t fp,
+                                               spectrum_scalar_t<S> forced_weight, const S& transfer, spectrum_scalar_t<S> ql,
+                                               const ConditionedValues<S>& next, ConditionedValues<S>& acc) noexcept {
+  apply_junction(conditioned_coefficients(end, fp, forced_weight, transfer, ql), next, acc);
 }
 
 }  // namespace detail
@@ -214,10 +256,16 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 /// for every s ending and s' starting there and light_pair(s, s') is the same for every s'
 /// with conditioned_potential (Lambertian ends and starts with one normal): their junctions are
 /// summed per flag class of s' (three classes), O(#ending + #starting) instead of the product.
+///
+/// `junction_cache_bytes`: the general clusters whose ConditionedJunction table (one per pair,
+/// sizeof(detail::ConditionedJunction<S>) bytes) fits in this budget, in cluster order, call link and
+/// light_pair once per pair for the whole propagation instead of once per pair and iteration.
+/// The result is the same. Returns the bytes the table took.
 template <Spectrum S, class Link, class LightPair, ParallelFor P = SerialFor>
-void propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& clustering, const ConditionedInputs<S, Link, LightPair>& in,
-                           int iterations, std::vector<S>& weighted, const P& parallel_for = {},
-                           std::span<const std::uint8_t> factorised = {}, std::span<const S> diffuse = {}) {
+std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& clustering, const ConditionedInputs<S, Link, LightPair>& in,
+                                  int iterations, std::vector<S>& weighted, const P& parallel_for = {},
+                                  std::span<const std::uint8_t> factorised = {}, std::span<const S> diffuse = {},
+                                  std::size_t junction_cache_bytes = 0) {
   using T = spectrum_scalar_t<S>;
   detail::check_conditioned(in, iterations);
   const std::size_t n = in.emitted.size();
@@ -257,6 +305,47 @@ void propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& clustering, c
       for (std::uint32_t i = first; i < first + cl.ending_count(); ++i) ending_light[i] = in.light_pair(ending_segment[i], representative);
     });
   }
+  // The junction of ending slot i and starting slot j of a general cluster with kernel K.
+  auto junction = [&](std::uint32_t i, std::uint32_t j, T kernel) -> detail::ConditionedJunction<S> {
+    const std::uint32_t s = ending_segment[i], sp = starting_segment[j];
+    const detail::ConditionedStart<T>& st = start[j];
+    S f;
+    if constexpr (std::is_invocable_v<const Link&, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>) {
+      f = in.link(s, sp, i, j);
+    } else {
+      f = in.link(s, sp);
+    }
+    T ql = T(0);
+    if (st.flags & conditioned_potential) {
+      if constexpr (std::is_invocable_v<const LightPair&, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>) {
+        ql = T(in.light_pair(s, sp, i, j));
+      } else {
+        ql = T(in.light_pair(s, sp));
+      }
+    }
+    return detail::conditioned_coefficients(end[i], st.flags, st.forced_weight, S(f * (kernel * st.geometry)), ql);
+  };
+  // The junction table of the general clusters that fit the budget, in cluster order.
+  constexpr std::size_t no_table = ~std::size_t(0);
+  std::vector<std::size_t> table_offset(clusters.size(), no_table);
+  std::size_t table_size = 0;
+  for (std::size_t c = 0; c < clusters.size(); ++c) {
+    if (!factorised.empty() && factorised[c]) continue;
+    const std::size_t pairs = std::size_t(clusters[c].ending_count()) * clusters[c].starting_count();
+    if (pairs == 0 || (table_size + pairs) * sizeof(detail::ConditionedJunction<S>) > junction_cache_bytes) continue;
+    table_offset[c] = table_size;
+    table_size += pairs;
+  }
+  std::vector<detail::ConditionedJunction<S>> table(table_size);
+  parallel_for(clusters.size(), [&](std::size_t c) {
+    if (table_offset[c] == no_table) return;
+    const Cluster<T>& cl = clusters[c];
+    detail::ConditionedJunction<S>* row = &table[table_offset[c]];
+    const std::uint32_t first_ending = cl.ending_slot(cl.middle);
+    for (std::uint32_t i = first_ending; i < first_ending + cl.ending_count(); ++i)
+      for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j, ++row)
+        if (start[j].geometry > T(0)) *row = junction(i, j, cl.kernel);
+  });
   current = emission;
   for (int k = 0; k < iterations; ++k) {
     detail::for_blocks(starting_segment.size(), parallel_for, [&](std::size_t j) {
@@ -291,30 +380,20 @@ void propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& clustering, c
         }
         return;
       }
-      for (std::uint32_t i = first_ending; i < last_ending; ++i) {
-        const std::uint32_t s = ending_segment[i];
-        ConditionedValues<S> acc = emission[i];
-        for (std::uint32_t j = first_starting; j < last_starting; ++j) {
-          const detail::ConditionedStart<T>& st = start[j];
-          if (!(st.geometry > T(0))) continue;
-          const std::uint32_t sp = starting_segment[j];
-          S f;
-          if constexpr (std::is_invocable_v<const Link&, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>) {
-            f = in.link(s, sp, i, j);
-          } else {
-            f = in.link(s, sp);
-          }
-          const S transfer = f * (cl.kernel * st.geometry);
-          T ql = T(0);
-          if (st.flags & conditioned_potential) {
-            if constexpr (std::is_invocable_v<const LightPair&, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>) {
-              ql = T(in.light_pair(s, sp, i, j));
-            } else {
-              ql = T(in.light_pair(s, sp));
-            }
-          }
-          detail::conditioned_junction(end[i], st.flags, st.forced_weight, transfer, ql, starting_values[j], acc);
+      if (table_offset[c] != no_table) {
+        const detail::ConditionedJunction<S>* row = &table[table_offset[c]];
+        for (std::uint32_t i = first_ending; i < last_ending; ++i) {
+          ConditionedValues<S> acc = emission[i];
+          for (std::uint32_t j = first_starting; j < last_starting; ++j, ++row)
+            if (start[j].geometry > T(0)) detail::apply_junction(*row, starting_values[j], acc);
+          next[i] = acc;
         }
+        return;
+      }
+      for (std::uint32_t i = first_ending; i < last_ending; ++i) {
+        ConditionedValues<S> acc = emission[i];
+        for (std::uint32_t j = first_starting; j < last_starting; ++j)
+          if (start[j].geometry > T(0)) detail::apply_junction(junction(i, j, cl.kernel), starting_values[j], acc);
         next[i] = acc;
       }
     });
@@ -328,6 +407,7 @@ void propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& clustering, c
   });
   detail::for_blocks(ending_segment.size(), parallel_for,
                      [&](std::size_t i) { weighted[ending_segment[i]] = current[i].w[0] + current[i].w[1]; });
+  return table_size * sizeof(detail::ConditionedJunction<S>);
 }
 
 /// The same over the disk support: s' ranges over starting_near(s), K = 1 / (pi r^2).
