@@ -403,18 +403,14 @@ class SegmentFiltering {
       const std::uint64_t l0 = light_paths * c / chunk_count, l1 = light_paths * (c + 1) / chunk_count;
       for (std::uint64_t l = l0; l < l1; ++l) trace_light_path(scene, l, iteration, light[c]);
     });
-    std::size_t total = 0;
-    for (std::size_t c = 0; c < chunk_count; ++c) total += camera[c].size() + light[c].size();
-    auto reserve = [&](auto& v) { v.reserve(total); };
-    reserve(pool.segments), reserve(pool.first_direction), reserve(pool.last_direction), reserve(pool.chain);
-    reserve(pool.geometry), reserve(pool.sensor_weight), reserve(pool.pixel), reserve(pool.parent), reserve(pool.flags);
-    for (const auto& chunk : camera) append(pool, chunk);
-    for (const auto& chunk : light) append(pool, chunk);
+    camera.insert(camera.end(), std::make_move_iterator(light.begin()), std::make_move_iterator(light.end()));
+    append(pool, camera, parallel_for);
     if (options_.bridges) add_bridges(scene, iteration, pool, parallel_for);
     const auto& emitter = scene.emitter();
     pool.emitted.resize(pool.size());
-    for (std::size_t i = 0; i < pool.size(); ++i)
+    detail::for_blocks(pool.size(), parallel_for, [&](std::size_t i) {
       pool.emitted[i] = emitter.radiance(EmissionQuery<T>{pool.segments[i].y, -pool.last_direction[i]}) * pool.chain[i];
+    });
     pool.density.assign(pool.size(), T(0));
   }
 
@@ -424,21 +420,34 @@ class SegmentFiltering {
   }
 
  private:
-  /// Appends one generator's records; their parents index `records`, the pool's the pool.
-  static void append(Pool& pool, std::span<const Record> records) {
-    const auto base = std::uint32_t(pool.size());
-    for (const Record& r : records) {
-      pool.segments.push_back(r.segment);
-      pool.first_direction.push_back(r.first_direction);
-      pool.last_direction.push_back(r.last_direction);
-      pool.chain.push_back(r.chain);
-      pool.geometry.push_back(r.geometry);
-      pool.sensor_weight.push_back(r.sensor_weight);
-      pool.pixel.push_back(r.pixel);
-      pool.parent.push_back(r.parent == no_parent ? no_parent : base + r.parent);
-      pool.flags.push_back(r.flags);
-      pool.next_event_segments += r.next_event ? 1 : 0;
-    }
+  /// Appends the generators' records, chunk after chunk (in parallel over chunks); a record's
+  /// parent indexes its own chunk, the pool's the pool.
+  template <class P>
+  static void append(Pool& pool, const std::vector<std::vector<Record>>& chunks, const P& parallel_for) {
+    std::vector<std::size_t> base(chunks.size() + 1, pool.size());
+    for (std::size_t c = 0; c < chunks.size(); ++c) base[c + 1] = base[c] + chunks[c].size();
+    const std::size_t total = base.back();
+    pool.segments.resize(total), pool.first_direction.resize(total), pool.last_direction.resize(total);
+    pool.chain.resize(total), pool.geometry.resize(total), pool.sensor_weight.resize(total), pool.pixel.resize(total);
+    pool.parent.resize(total), pool.flags.resize(total);
+    std::vector<std::uint64_t> next_event(chunks.size(), 0);
+    parallel_for(chunks.size(), [&](std::size_t c) {
+      std::size_t i = base[c];
+      for (const Record& r : chunks[c]) {
+        pool.segments[i] = r.segment;
+        pool.first_direction[i] = r.first_direction;
+        pool.last_direction[i] = r.last_direction;
+        pool.chain[i] = r.chain;
+        pool.geometry[i] = r.geometry;
+        pool.sensor_weight[i] = r.sensor_weight;
+        pool.pixel[i] = r.pixel;
+        pool.parent[i] = r.parent == no_parent ? no_parent : std::uint32_t(base[c] + r.parent);
+        pool.flags[i] = r.flags;
+        next_event[c] += r.next_event ? 1 : 0;
+        ++i;
+      }
+    });
+    for (const auto n : next_event) pool.next_event_segments += n;
   }
 
   /// Bridge segments (BDPF option): every camera technique point y_t draws one light-born
@@ -475,7 +484,7 @@ class SegmentFiltering {
         bridges[c].push_back(r);
       }
     });
-    for (const auto& chunk : bridges) append(pool, chunk);
+    append(pool, bridges, parallel_for);
   }
 
   /// One camera path: the sensor segment, then approximate successors (N33) from each
