@@ -28,7 +28,8 @@ std::vector<Segment<double>> random_segments(Pcg32& rng, std::size_t n) {
   return segments;
 }
 
-/// The support predicate written out: x within r of y, normals within 60 degrees.
+/// The support predicate written out: x within r of y, normals within 60 degrees (a segment
+/// never joins itself: the callers skip s' == s).
 bool joined(const Segment<double>& s, const Segment<double>& sp, double r) {
   if (s.y.kind != PointKind::surface || sp.x.kind != PointKind::surface) return false;
   const Vec3<double> d = sp.x.position - s.y.position;
@@ -52,7 +53,7 @@ TEST_CASE("disk junctions are exactly the pairs within r with agreeing normals",
     for (std::uint32_t s = 0; s < segments.size(); ++s) {
       std::vector<std::uint32_t> expected;
       for (std::uint32_t sp = 0; sp < segments.size(); ++sp)
-        if (joined(segments[s], segments[sp], r)) {
+        if (sp != s && joined(segments[s], segments[sp], r)) {
           expected.push_back(sp);
           ending[sp].push_back(s);
         }
@@ -91,7 +92,7 @@ double naive(const std::vector<Segment<double>>& segments, const std::vector<dou
   if (depth == 0) return value;
   double sum = 0;
   for (std::uint32_t sp = 0; sp < segments.size(); ++sp)
-    if (joined(segments[s], segments[sp], r))
+    if (sp != s && joined(segments[s], segments[sp], r))
       sum += link[s * segments.size() + sp] * naive(segments, emitted, weighted_geometry, link, r, sp, depth - 1) *
              weighted_geometry[sp];
   return value + sum / (pi<double> * r * r);

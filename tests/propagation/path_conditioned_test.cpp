@@ -139,7 +139,7 @@ double naive(const RandomSides& p, std::uint32_t s, int depth, const Near& near,
 
 TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 400 random pools", "[propagation]") {
   Pcg32 rng(2026, 11);
-  int compared = 0, nontrivial = 0, forced_light = 0;
+  int compared = 0, nontrivial = 0, forced_light = 0, self_joined = 0;
   for (int trial = 0; trial < 400; ++trial) {
     RandomSides p = make_sides(rng);
     const bool disk = trial % 2 == 1;
@@ -160,7 +160,9 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
         const std::uint32_t c = clustering.cluster_of_y(s);
         if (c == no_cluster) continue;
         const Cluster<double>& cl = clustering.clusters()[c];
-        for (std::uint32_t r = cl.begin; r < cl.middle; ++r) near[s].push_back(clustering.refs()[r].segment);
+        for (std::uint32_t r = cl.begin; r < cl.middle; ++r)
+          if (clustering.refs()[r].segment != s) near[s].push_back(clustering.refs()[r].segment);  // never itself
+        self_joined += clustering.cluster_of_x(s) == c;
         kernel[s] = cl.kernel;
       }
     }
@@ -208,7 +210,8 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
       std::size_t junctions_per_sweep = 0;
       for (const Cluster<double>& cl : clustering.clusters())
         for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j)
-          if (p.geometry[clustering.starting_segments()[j]] > 0) junctions_per_sweep += cl.ending_count();
+          if (const std::uint32_t sp = clustering.starting_segments()[j]; p.geometry[sp] > 0)
+            junctions_per_sweep += cl.ending_count() - (clustering.cluster_of_y(sp) == clustering.cluster_of_x(sp) ? 1 : 0);
       std::vector<double> by_slot;
       CHECK(propagate_conditioned(clustering, slot_inputs, depth, by_slot) == 0);  // no junction table by default
       CHECK(calls == junctions_per_sweep * std::size_t(depth));
@@ -241,6 +244,7 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
   CHECK(compared > 2000);
   CHECK(nontrivial > compared / 4);
   CHECK(forced_light > 50);  // the forced branch is exercised
+  CHECK(self_joined > 100);   // segments with both ends in one cluster, which must not join themselves
 }
 
 TEST_CASE("path-conditioned propagation rejects inputs of different sizes", "[propagation]") {
@@ -263,7 +267,7 @@ TEST_CASE("path-conditioned propagation rejects inputs of different sizes", "[pr
 
 TEST_CASE("path-conditioned propagation: factorised clusters give the general sum", "[propagation]") {
   Pcg32 rng(2026, 12);
-  int factorised_clusters = 0;
+  int factorised_clusters = 0, self_joined = 0;  // self_joined: both ends in one factorised cluster
   for (int trial = 0; trial < 300; ++trial) {
     RandomSides p = make_sides(rng);
     Clustering<double> clustering;
@@ -279,11 +283,13 @@ TEST_CASE("path-conditioned propagation: factorised clusters give the general su
       const std::uint32_t c = clustering.cluster_of_y(s);
       if (c == no_cluster) continue;
       const Cluster<double>& cl = clustering.clusters()[c];
-      for (std::uint32_t r = cl.begin; r < cl.middle; ++r) near[s].push_back(clustering.refs()[r].segment);
+      for (std::uint32_t r = cl.begin; r < cl.middle; ++r)
+        if (clustering.refs()[r].segment != s) near[s].push_back(clustering.refs()[r].segment);
+      self_joined += factorised[c] && clustering.cluster_of_x(s) == c;
       if (!factorised[c]) continue;
-      for (const std::uint32_t sp : near[s]) {
-        p.link_table[s * p.n + sp] = diffuse[s];
-        p.light_table[s * p.n + sp] = light_of[s];
+      for (std::uint32_t r = cl.begin; r < cl.middle; ++r) {  // every start, s itself too (the contract)
+        p.link_table[s * p.n + clustering.refs()[r].segment] = diffuse[s];
+        p.light_table[s * p.n + clustering.refs()[r].segment] = light_of[s];
       }
       factorised_clusters += s == clustering.refs()[cl.middle].segment;
     }
@@ -297,4 +303,5 @@ TEST_CASE("path-conditioned propagation: factorised clusters give the general su
     for (std::uint32_t s = 0; s < p.n; ++s) CHECK(fast[s] == Approx(general[s]).epsilon(1e-12).margin(1e-300));
   }
   CHECK(factorised_clusters > 300);
+  CHECK(self_joined > 100);  // the sums without a segment's own start are exercised
 }

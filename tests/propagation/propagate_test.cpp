@@ -42,7 +42,7 @@ RandomPool make_pool(Pcg32& rng) {
 
 TEST_CASE("propagation equals the naive recursive MMIS estimator on 1000 random pools", "[propagation][estimators]") {
   Pcg32 rng(2025, 6);
-  int compared = 0, nontrivial = 0;
+  int compared = 0, nontrivial = 0, self_joined = 0;
   for (int trial = 0; trial < 1000; ++trial) {
     const RandomPool pool = make_pool(rng);
     Clustering<double> clustering;
@@ -58,10 +58,42 @@ TEST_CASE("propagation equals the naive recursive MMIS estimator on 1000 random 
       CHECK(radiance[s] == Approx(reference).epsilon(1e-12).margin(1e-300));
       ++compared;
       if (reference != pool.emitted[s]) ++nontrivial;
+      self_joined += clustering.cluster_of_y(s) != no_cluster && clustering.cluster_of_y(s) == clustering.cluster_of_x(s);
     }
   }
-  // The pools must exercise the recursion, not only L_e.
+  // The pools must exercise the recursion, not only L_e, and segments with both ends in one
+  // cluster (which must not join themselves).
   CHECK(nontrivial > compared / 4);
+  CHECK(self_joined > 100);
+}
+
+TEST_CASE("a segment never joins itself, general or factorised", "[propagation]") {
+  // One short segment, both ends in one voxel, with a self-junction gain K f_r G w = 100 x 1 x 1
+  // (a glossy peak at a short segment's two ends): were it joined to itself, k sweeps would
+  // raise L to about 100^k. Its companion t starts there too and is joined.
+  const auto at = [](double x) { return SurfacePoint<double>::on_surface({x, 0.5, 0.5}, {0, 0, 1}); };
+  const std::vector<Segment<double>> segments{{at(0.2), at(0.3)}, {at(0.4), at(5.5)}};
+  const std::vector<double> emitted{1.0, 2.0}, weighted_geometry{1.0, 0.5}, diffuse{1.0, 1.0};
+  Clustering<double> clustering;
+  clustering.build(VoxelGrid<double>(1.0), segments);
+  REQUIRE(clustering.cluster_of_x(0) == clustering.cluster_of_y(0));
+  const double kernel = clustering.clusters()[clustering.cluster_of_y(0)].kernel;
+  auto link = [&](std::uint32_t, std::uint32_t) { return 100.0 / kernel; };
+  const std::vector<std::uint8_t> factorised(clustering.clusters().size(), 1);
+  auto diffuse_link = [&](std::uint32_t s, std::uint32_t) { return diffuse[s]; };
+  const PropagationInputs<double, decltype(link)> general{clustering, emitted, weighted_geometry, link};
+  const std::vector<double> scaled{100.0 / kernel, 100.0 / kernel};
+  const PropagationInputs<double, decltype(diffuse_link)> fast{clustering, emitted, weighted_geometry, diffuse_link, scaled,
+                                                                factorised};
+  for (const int k : {1, 5}) {
+    std::vector<double> a, b, scratch;
+    propagate(general, k, a, scratch);
+    propagate(fast, k, b, scratch);
+    const double expected = 1.0 + 100.0 * 0.5 * 2.0;  // L_e(s) + gain(s -> t) L_e(t), t ends outside
+    CHECK(a[0] == Approx(expected));
+    CHECK(b[0] == Approx(expected));
+    CHECK(recursive_mmis_radiance<double>(clustering, emitted, weighted_geometry, link, 0, k) == Approx(expected));
+  }
 }
 
 namespace {

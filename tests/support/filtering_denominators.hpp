@@ -15,7 +15,7 @@
 namespace segpath::testing {
 
 /// `kernel(end, start)` is the kernel value joining the end y_t of one pooled segment to the
-/// start x_s of another (0 outside the support). Checks D(s) for every segment within 1e-12
+/// start x_s of another (0 outside the support); a segment is never its own technique sample. Checks D(s) for every segment within 1e-12
 /// relative (double; float scenes: 1e-4, the sums run in another order) and returns
 /// {segments checked, segments with more than one technique sample}.
 template <class Filter, class Scn, class Kernel>
@@ -49,6 +49,7 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
     double d = 0, camera_points = 0;
     int techniques = 0;
     for (std::uint32_t t = 0; t < pool.size(); ++t) {
+      if (t == s) continue;  // a segment is not its own technique sample
       // A camera technique sample: a continued segment whose end's support holds x_s.
       if (pool.flags[t] & Filter::camera_technique) {
         const double k = kernel(t, s);
@@ -73,7 +74,7 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
     // A bridge: any camera technique point to any of the M targets, uniform kernel draws at both ends.
     if (filter.options().bridges && plain && seg.y.kind == PointKind::surface && !targets.empty()) {
       double bridge_light = 0;
-      for (const std::uint32_t u : targets) bridge_light += kernel(s, u);
+      for (const std::uint32_t u : targets) bridge_light += u != s ? kernel(s, u) : 0.0;
       d += camera_points * bridge_light / double(targets.size());
       techniques += camera_points * bridge_light > 0;
     }
@@ -138,7 +139,7 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
     }
     if (light_drawable)
       for (std::uint32_t u = 0; u < pool.size(); ++u) {
-        if (!(pool.flags[u] & Filter::light_technique)) continue;
+        if (!(pool.flags[u] & Filter::light_technique) || u == s) continue;
         const double q = kernel(s, u) * to_segment_measure *
                          double(bsdf.pdf(BsdfQuery<T>{pool.segments[u].x, -pool.last_direction[s], pool.first_direction[u], Transport::importance}));
         if (!(q > 0)) continue;

@@ -1071,14 +1071,18 @@ class SegmentFiltering {
           const Vec3<T>& w = pool.first_direction[sp];
           T sum = T(0);
           if (common) {
-            // Lambertian technique points with one normal: p_w = cos / pi for every t (+ one-sided checks).
+            // Lambertian technique points with one normal: p_w = cos / pi for every t (+ one-sided
+            // checks), s' itself not among them (a segment is not its own technique sample).
             const T cosine = glm::dot(w, *common);
-            if (glm::dot(w, any_y.normal) > one_sided_epsilon<T> && cosine > T(0)) sum = T(valid_camera) * cosine * inv_pi<T>;
+            const bool self = clustering.cluster_of_y(sp) == c && (pool.flags[sp] & camera_technique) &&
+                              glm::dot(-pool.last_direction[sp], any_y.normal) > one_sided_epsilon<T>;
+            if (glm::dot(w, any_y.normal) > one_sided_epsilon<T> && cosine > T(0))
+              sum = T(valid_camera - (self ? 1 : 0)) * cosine * inv_pi<T>;
             pairs[c] += 1;
           } else {
             for (std::uint32_t q = cl.middle; q < cl.end; ++q) {
               const std::uint32_t t = refs[q].segment;
-              if (!(pool.flags[t] & camera_technique)) continue;
+              if (!(pool.flags[t] & camera_technique) || t == sp) continue;
               sum += camera_technique_pdf(bsdf, pool, t, sp);
               pairs[c] += 1;
             }
@@ -1113,18 +1117,23 @@ class SegmentFiltering {
           T sum = T(0);
           if (common) {
             const T cosine = glm::dot(to_sensor, *common);
+            // s' itself is not among the technique samples.
+            const bool self = clustering.cluster_of_x(sp) == c && (pool.flags[sp] & light_technique) &&
+                              glm::dot(pool.first_direction[sp], any_x.normal) > one_sided_epsilon<T>;
+            const std::uint32_t light_count = valid_light - (self ? 1 : 0);
+            const std::uint32_t deep_count = valid_deep - (self && deep(sp) ? 1 : 0);
             if (glm::dot(to_sensor, any_x.normal) > one_sided_epsilon<T> && cosine > T(0)) {
-              sum = T(valid_light) * cosine * inv_pi<T>;
+              sum = T(light_count) * cosine * inv_pi<T>;
               if (side && scale * cosine > T(0)) {
-                side->terms[sp] += valid_light;
-                side->technique_density[sp] += scale * T(valid_deep) * cosine * inv_pi<T>;
+                side->terms[sp] += light_count;
+                side->technique_density[sp] += scale * T(deep_count) * cosine * inv_pi<T>;
               }
             }
             pairs[c] += 1;
           } else {
             for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
               const std::uint32_t t = refs[q].segment;
-              if (!(pool.flags[t] & light_technique)) continue;
+              if (!(pool.flags[t] & light_technique) || t == sp) continue;
               const T pdf = light_technique_pdf(bsdf, pool, t, sp);
               sum += pdf;
               pairs[c] += 1;
@@ -1155,9 +1164,13 @@ class SegmentFiltering {
       parallel_for(pool.size(), [&](std::size_t i) {
         const std::uint32_t cx = clustering.cluster_of_x(std::uint32_t(i)), cy = clustering.cluster_of_y(std::uint32_t(i));
         if (cx == no_cluster) return;
-        camera_points_at_x[i] = clusters[cx].kernel * T(camera_points[cx]);
+        // Not counting segment i itself, as a camera point at x or as a bridge target at y.
+        const bool self_point = (pool.flags[i] & camera_technique) && cy == cx;
+        camera_points_at_x[i] = clusters[cx].kernel * T(camera_points[cx] - (self_point ? 1 : 0));
+        const bool self_target = is_bridge_target(pool, i) && cy == cx;
         if (bridges && cy != no_cluster && bridge_reachable(pool, i))
-          bridge_sum[i] = camera_points_at_x[i] * clusters[cy].kernel * T(bridge_targets[cy]) / T(pool.bridge_targets);
+          bridge_sum[i] =
+              camera_points_at_x[i] * clusters[cy].kernel * T(bridge_targets[cy] - (self_target ? 1 : 0)) / T(pool.bridge_targets);
       });
       if (!options_.next_event) camera_points_at_x.clear();
     }

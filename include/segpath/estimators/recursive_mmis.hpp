@@ -2,7 +2,8 @@
 // into every candidate successor s' in the kernel support of y_s (those starting in the
 // cluster of y_s), each weighted by its MMIS weight w(s') = 1 / sum over all technique samples
 // of p(s' | t):
-//   <L(s)> = L_e(s) + K sum_{s'} f_r(s, s') G(s') w(s') <L(s')>,  to a depth of `depth` links.
+//   <L(s)> = L_e(s) + K sum_{s' != s} f_r(s, s') G(s') w(s') <L(s')>,  to a depth of `depth` links
+// (a segment whose two ends share a cluster does not join itself: see propagation/propagate.hpp).
 // Exponential in depth: the reference that propagation (propagation/propagate.hpp) must match.
 #pragma once
 
@@ -29,6 +30,7 @@ template <Spectrum S, class Link>
   S sum(T(0));
   for (std::uint32_t q = cluster.begin; q < cluster.middle; ++q) {
     const std::uint32_t sp = refs[q].segment;
+    if (sp == s) continue;
     sum += link(s, sp) * (recursive_mmis_radiance(clustering, emitted, weighted_geometry, link, sp, depth - 1) *
                           weighted_geometry[sp]);
   }

@@ -23,7 +23,8 @@ namespace segpath {
 /// s' whose x end lies in the support of y_s, in increasing id order; `ending_near(s')` is the
 /// transpose (the segments t whose support around y_t holds x_s'). The relation is symmetric in
 /// the two points (distance < r, n_x . n_y >= min_normal_cosine), so each list is also "every
-/// technique sample whose kernel reaches this end". Memory: two ids per junction plus two
+/// technique sample whose kernel reaches this end". A segment is never in its own lists: it does
+/// not join itself, nor draw itself (propagation/propagate.hpp). Memory: two ids per junction plus two
 /// offsets per segment, O(#segments x occupancy).
 template <Real T>
 class DiskJunctions {
@@ -58,7 +59,7 @@ class DiskJunctions {
       const SurfacePoint<T>& y = segments[s].y;
       if (y.kind != PointKind::surface) return;
       grid.for_each_within(Vec3<T>(canonical(y)), [&](std::uint32_t sp, const Vec3<T>&) {
-        if (glm::dot(segments[sp].x.normal, y.normal) >= threshold) f(sp);
+        if (sp != s && glm::dot(segments[sp].x.normal, y.normal) >= threshold) f(sp);
       });
     };
     starting_offsets_.assign(std::size_t(n) + 1, 0);

@@ -44,7 +44,8 @@
 // (3 of 30), 0.99997 +- 0.0006 (2 of 3), where the paper's gives 1.0439, 1.0249, 1.0008.
 // Remaining bias: a technique sample that is the pool successor of a chain segment but not in
 // the chain (its presence depends on how the chain was drawn; O(1 / technique samples per
-// cluster)); a technique sample used twice by one chain (revisits).
+// cluster)); a technique sample used twice by one chain (revisits) other than s -> s, which is
+// never a junction (propagation/propagate.hpp).
 //
 // The recursion: r_i depends on s_{i+1} and on two bits, e(s_i) (from the suffix) and "forced"
 // (from the predecessor), so each segment carries four values, U_e and W_e for e in {0, 1}:
@@ -344,7 +345,7 @@ std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& cluste
     const std::uint32_t first_ending = cl.ending_slot(cl.middle);
     for (std::uint32_t i = first_ending; i < first_ending + cl.ending_count(); ++i)
       for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j, ++row)
-        if (start[j].geometry > T(0)) *row = junction(i, j, cl.kernel);
+        if (start[j].geometry > T(0) && start[j].source != i) *row = junction(i, j, cl.kernel);
   });
   current = emission;
   for (int k = 0; k < iterations; ++k) {
@@ -360,24 +361,35 @@ std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& cluste
         // Classes of s': 0 not a potential light technique, 1 potential, 2 light technique sample.
         constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
                                                  conditioned_potential | conditioned_light_technique | conditioned_light_born};
-        std::array<ConditionedValues<S>, 3> sum{};
-        for (std::uint32_t j = first_starting; j < last_starting; ++j) {
-          const detail::ConditionedStart<T>& st = start[j];
-          if (!(st.geometry > T(0))) continue;
-          const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
-          for (int e = 0; e < 2; ++e) {
-            sum[k_class].w[e] += starting_values[j].w[e] * st.geometry;
-            sum[k_class].u[e] += starting_values[j].u[e] * (st.geometry * st.forced_weight);
+        // The sums over the starts of each class, but for slot `skip` (none: no_cluster).
+        auto class_sums = [&](std::uint32_t skip) {
+          std::array<ConditionedValues<S>, 3> sum{};
+          for (std::uint32_t j = first_starting; j < last_starting; ++j) {
+            const detail::ConditionedStart<T>& st = start[j];
+            if (!(st.geometry > T(0)) || j == skip) continue;
+            const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
+            for (int e = 0; e < 2; ++e) {
+              sum[k_class].w[e] += starting_values[j].w[e] * st.geometry;
+              sum[k_class].u[e] += starting_values[j].u[e] * (st.geometry * st.forced_weight);
+            }
           }
-        }
-        for (std::uint32_t i = first_ending; i < last_ending; ++i) {
+          return sum;
+        };
+        auto values_of = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
           ConditionedValues<S> acc = emission[i];
           const S transfer = ending_diffuse[i] * cl.kernel;
           const T ql = ending_light[i];
           for (int k_class = 0; k_class < 3; ++k_class)
             detail::conditioned_junction(end[i], class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0), sum[k_class], acc);
-          next[i] = acc;
-        }
+          return acc;
+        };
+        const std::array<ConditionedValues<S>, 3> all = class_sums(no_cluster);
+        for (std::uint32_t i = first_ending; i < last_ending; ++i) next[i] = values_of(i, all);
+        // A segment starting here too does not join itself (propagation/propagate.hpp): its
+        // sums again without its own start, summed afresh (no cancellation of a dominant term).
+        for (std::uint32_t j = first_starting; j < last_starting; ++j)
+          if (start[j].source >= first_ending && start[j].source < last_ending)
+            next[start[j].source] = values_of(start[j].source, class_sums(j));
         return;
       }
       if (table_offset[c] != no_table) {
@@ -385,7 +397,7 @@ std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& cluste
         for (std::uint32_t i = first_ending; i < last_ending; ++i) {
           ConditionedValues<S> acc = emission[i];
           for (std::uint32_t j = first_starting; j < last_starting; ++j, ++row)
-            if (start[j].geometry > T(0)) detail::apply_junction(*row, starting_values[j], acc);
+            if (start[j].geometry > T(0) && start[j].source != i) detail::apply_junction(*row, starting_values[j], acc);
           next[i] = acc;
         }
         return;
@@ -393,7 +405,7 @@ std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& cluste
       for (std::uint32_t i = first_ending; i < last_ending; ++i) {
         ConditionedValues<S> acc = emission[i];
         for (std::uint32_t j = first_starting; j < last_starting; ++j)
-          if (start[j].geometry > T(0)) detail::apply_junction(junction(i, j, cl.kernel), starting_values[j], acc);
+          if (start[j].geometry > T(0) && start[j].source != i) detail::apply_junction(junction(i, j, cl.kernel), starting_values[j], acc);
         next[i] = acc;
       }
     });

@@ -1,6 +1,6 @@
 // Iterative propagation (SPEC 1.8, the paper's Algorithm 1) of the recursive MMIS estimator
 // (N39): with the pool clustered,
-//   out(s) = L_e(s) + K_C(y_s) sum_{s' starting in C(y_s)} f_r(s, s') G(s') w(s') in(s'),
+//   out(s) = L_e(s) + K_C(y_s) sum_{s' starting in C(y_s), s' != s} f_r(s, s') G(s') w(s') in(s'),
 // Jacobi style (in() is gathered before each sweep), so after k iterations every path of up to
 // k + 1 segments is counted once. Cost per iteration: sum over clusters of (#ending x
 // #starting) link evaluations, or (#ending + #starting) for factorised clusters. Memory
@@ -9,6 +9,13 @@
 // out of cache it is bound by memory bandwidth and its time per segment stays flat
 // (bench/propagation). Per pool, the inputs are gathered into slot order once. Memory
 // O(#segments).
+//
+// A segment never joins itself (s' != s above; SPEC 1.8 step 5 writes the sum over every s').
+// A chain that uses one sample twice is not a path sample: the expectation of the pooled sum is
+// the kernel path integral over chains of distinct samples only. The self-junction of a segment
+// whose two ends share a cluster (a short segment, e.g. floor -> mirror sphere -> floor) has a
+// gain K f_r G w that can exceed 1 near a glossy lobe's peak, and the Jacobi sweeps then raise
+// it to the k-th power: one such segment made a 700x firefly on Cornell box 1.
 #pragma once
 
 #include "segpath/core/parallel.hpp"
@@ -150,17 +157,28 @@ void propagate_prepared(const PropagationInputs<S, Link>& in, int iterations, st
       const std::uint32_t last_ending = first_ending + cluster.ending_count();
       const T* weight = w.starting_weight.data() + cluster.slot;
       const S* value = values.data() + cluster.slot;
+      const std::uint32_t* source = w.source.data() + cluster.slot;  // source[q] == i: s' is s
       if (has_factorisation && in.factorised[c]) {
         S sum(T(0));
         for (std::uint32_t q = 0; q < starting; ++q) sum += value[q];
         for (std::uint32_t i = first_ending; i < last_ending; ++i)
           w.out[i] = w.ending_emitted[i] + w.ending_diffuse[i] * sum * cluster.kernel;
+        // A segment starting here too does not join itself: its sum again without its own term
+        // (summed afresh, not subtracted, so that a dominant own term leaves no cancellation).
+        for (std::uint32_t own = 0; own < starting; ++own) {
+          const std::uint32_t i = source[own];
+          if (i < first_ending || i >= last_ending) continue;
+          S others(T(0));
+          for (std::uint32_t q = 0; q < starting; ++q)
+            if (q != own) others += value[q];
+          w.out[i] = w.ending_emitted[i] + w.ending_diffuse[i] * others * cluster.kernel;
+        }
         return;
       }
       for (std::uint32_t i = first_ending; i < last_ending; ++i) {
         S sum(T(0));
         for (std::uint32_t q = 0; q < starting; ++q) {
-          if (weight[q] == T(0)) continue;
+          if (weight[q] == T(0) || source[q] == i) continue;
           const std::uint32_t j = cluster.slot + q;
           if constexpr (by_slot) {
             sum += in.link(ending_segment[i], starting_segment[j], i, j) * value[q];
