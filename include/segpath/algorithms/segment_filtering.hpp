@@ -1364,17 +1364,21 @@ class SegmentFiltering {
       for (std::size_t c = 0; c < factorised.size(); ++c) {
         const Cluster<T>& cl = clustering.clusters()[c];
         if (cl.middle == cl.end || cl.begin == cl.middle) continue;
-        const SurfacePoint<T>& first = pool.segments[refs[cl.middle].segment].y;
+        // A black Lambertian end (an emitter that reflects nothing) has f_r = 0 = diffuse
+        // whatever its normal and directions: next-event segments end on such lights in crowds.
+        const SurfacePoint<T>* first = nullptr;
         bool ok = true;
         for (std::uint32_t q = cl.middle; q < cl.end && ok; ++q) {
           const std::uint32_t s = refs[q].segment;
           const SurfacePoint<T>& y = pool.segments[s].y;
           const auto albedo = bsdf.lambertian_albedo(y);
-          ok = albedo && y.normal == first.normal && glm::dot(-pool.last_direction[s], y.normal) > one_sided_epsilon<T>;
+          if (albedo && is_black(*albedo)) continue;
+          if (!first) first = &y;
+          ok = albedo && y.normal == first->normal && glm::dot(-pool.last_direction[s], y.normal) > one_sided_epsilon<T>;
           if (ok) diffuse[s] = *albedo * inv_pi<T> * pool.chain[s];
         }
-        for (std::uint32_t r = cl.begin; r < cl.middle && ok; ++r)
-          ok = glm::dot(pool.first_direction[refs[r].segment], first.normal) > one_sided_epsilon<T>;
+        for (std::uint32_t r = cl.begin; r < cl.middle && ok && first; ++r)
+          ok = glm::dot(pool.first_direction[refs[r].segment], first->normal) > one_sided_epsilon<T>;
         factorised[c] = ok ? 1 : 0;
         stats.factorised_transfer_clusters += ok ? 1 : 0;
       }
