@@ -57,7 +57,7 @@ struct MethodOptions {
   std::optional<double> beta;    ///< light paths per camera path (> 0); unset: 1
   segpath::FilteringSupport support = segpath::FilteringSupport::voxel;  ///< filtering: junction support
   bool bridges = false;          ///< bdpf: add bridge segments
-  bool next_event = false;       ///< mvf, bdpf: add next-event segments
+  bool next_event = true;        ///< mvf, bdpf: add next-event segments (best at equal time on box 1)
   /// bdpf: chain weighting, path-conditioned (unbiased) or the paper's prod 1 / D
   segpath::FilteringWeighting weighting = segpath::FilteringWeighting::path_conditioned;
   bool print_stats = false;      ///< mvf, phf, bdpf: one line of FilteringStats per iteration on stderr
@@ -344,11 +344,12 @@ class VcmMethod {
 };
 
 /// MVF, PhF and BDPF (segpath::SegmentFiltering): approximate sequential segments pooled per
-/// iteration, voxel clusters (or disks of the same area, --support disk) of --radius (default 4x the average pixel footprint) shrinking by
-/// --alpha (default 0.67), beta x #pixels light paths (default 1: BDPF's best at equal time on
-/// box 1, docs/figures.md), MMIS weights and
-/// propagation (the paper's Algorithm 1); BDPF optionally with bridge segments (--bridges), MVF
-/// and BDPF with next-event segments (--next-event; PhF has no camera technique points).
+/// iteration, voxel clusters (or disks of the same area, --support disk) of --radius (default 4x
+/// the average pixel footprint) shrinking by --alpha (default 0.67), beta x #pixels light paths
+/// (default 1), MMIS weights and propagation (the paper's Algorithm 1); BDPF optionally with
+/// bridge segments (--bridges). MVF and BDPF draw next-event segments by default (the library's
+/// FilteringOptions::next_event; --no-next-event turns them off; PhF has no camera technique
+/// points): on box 1 they cut BDPF's relMSE at equal time by a quarter (docs/figures.md).
 template <segpath::FilteringMode Mode>
 class FilteringMethod {
  public:

@@ -50,7 +50,7 @@ struct Options {
   std::optional<double> alpha, beta;
   std::string support = "voxel";
   bool bridges = false;
-  bool next_event = false;
+  bool next_event = true;
   std::string weighting = "path";
   bool stats = false;
   std::vector<std::string> out;
@@ -285,7 +285,8 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"voxel", "disk"}))
       ->capture_default_str();
   app.add_flag("--bridges", o.bridges, "bdpf: also join camera and light paths by bridge segments");
-  app.add_flag("--next-event", o.next_event, "mvf/bdpf: also draw a segment to a light point from every camera path vertex");
+  app.add_flag("--next-event,!--no-next-event", o.next_event,
+               "mvf/bdpf: also draw a segment to a light point from every camera path vertex (default: on)");
   app.add_option("--weighting", o.weighting,
                  "bdpf: chain weighting, path (path-conditioned, unbiased) or paper (prod 1 / D, biased)")
       ->check(CLI::IsMember({"path", "paper"}))
