@@ -106,7 +106,7 @@ double chain_weight(const RandomSides& p, const std::vector<std::uint32_t>& chai
     } else {
       const bool excluded = (p.flags[chain[a + 1]] & conditioned_light_technique) && ql(a) > 0;
       const double light_other = other_terms(a) > 0 ? std::max(0.0, p.light[s] - (excluded ? ql(a) : 0.0)) : 0.0;
-      const double lambda = light_other + ql(a);
+      const double lambda = light_other > 0 ? light_other : ql(a);
       const double g = std::max(0.0, p.density[s] - p.light[s]) + (e[a] ? lambda : 0.0);
       if (light_born) w *= e[a] && g > 0 && p.light[s] > 0 ? lambda / (g * p.light[s]) : 0.0;
       else w *= g > 0 ? 1 / g : 0.0;
