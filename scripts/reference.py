@@ -3,6 +3,10 @@
 
   scripts/reference.py average OUT.pfm A.pfm B.pfm ...
       writes the pixel mean of the inputs (independent renders of one scene, equal weight).
+  scripts/reference.py halves A.pfm B.pfm
+      A and B: two independent unbiased renders of equal effort. Prints the relMSE their
+      average carries as a reference: mean (A - B)^2 / (M^2 + 1e-2) / 4, M = (A + B) / 2
+      (each half's error is half of E (A - B)^2, the average's half of a half's).
   scripts/reference.py floor REF.pfm A.pfm B.pfm
       A and B: two independent *unbiased* renders, both independent of REF. Prints the relMSE
       (segpath-render's: mean over pixels and channels of (x - r)^2 / (r^2 + 1e-2)) that REF's
@@ -48,6 +52,18 @@ def average(out, inputs):
     write_pfm(out, width, height, array.array("f", (v / n for v in total)))
 
 
+def halves(a, b):
+    _, _, x = read_pfm(a)
+    _, _, y = read_pfm(b)
+    if len(x) != len(y):
+        raise ValueError("the images differ in size")
+    total = 0.0
+    for u, v in zip(x, y):
+        m = 0.5 * (u + v)
+        total += (u - v) ** 2 / (m * m + 1e-2)
+    print(f"the average's own relMSE as a reference: {total / len(x) / 4:.5f}")
+
+
 def floor(ref, a, b):
     _, _, r = read_pfm(ref)
     _, _, x = read_pfm(a)
@@ -69,6 +85,8 @@ def floor(ref, a, b):
 if __name__ == "__main__":
     if len(sys.argv) >= 4 and sys.argv[1] == "average":
         average(sys.argv[2], sys.argv[3:])
+    elif len(sys.argv) == 4 and sys.argv[1] == "halves":
+        halves(sys.argv[2], sys.argv[3])
     elif len(sys.argv) == 5 and sys.argv[1] == "floor":
         floor(sys.argv[2], sys.argv[3], sys.argv[4])
     else:

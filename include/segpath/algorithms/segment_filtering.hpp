@@ -815,7 +815,7 @@ class SegmentFiltering {
     weighted_geometry_of(pool, weighted_geometry);
     std::vector<std::uint8_t> factorised;
     std::vector<S> diffuse;
-    if (options_.factorise) transfer_factorisation(scene, pool, clustering, factorised, diffuse, stats);
+    if (options_.factorise) transfer_factorisation(scene, pool, clustering, factorised, diffuse, stats, parallel_for);
     Transfer transfer;
     transfer.build(pool, clustering, factorised, parallel_for);
     const TransferLink link{scene.bsdf(), transfer};
@@ -892,7 +892,8 @@ class SegmentFiltering {
     std::vector<std::uint8_t> flags;
   };
   static constexpr std::size_t conditioned_bytes_per_segment =
-      4 * sizeof(ConditionedValues<S>) + 8 * sizeof(T) + 4 * sizeof(std::uint32_t) + 3 + sizeof(std::int64_t);  // + the pair cache rows
+      4 * sizeof(ConditionedValues<S>) + 8 * sizeof(T) + 4 * sizeof(std::uint32_t) + 3 +
+      3 * sizeof(detail::ConditionedJunction<S>);  // + the junction table (transfer_cache_bytes)
 
   /// q_l(s | s'), the one pair density of the weighting: the density with which a light
   /// technique sample at x_{s'} (the approximate light predecessor, N33) draws s, kernel
@@ -958,7 +959,7 @@ class SegmentFiltering {
     } else {
       std::vector<std::uint8_t> factorised;
       std::vector<S> diffuse;
-      if (options_.factorise) conditioned_factorisation(scene, pool, support, factorised, diffuse, stats);
+      if (options_.factorise) conditioned_factorisation(scene, pool, support, factorised, diffuse, stats, parallel_for);
       // The general clusters read slot-ordered copies (Transfer, and the starts and s-only
       // factors of q_l): f_r and q_l by slot, as propagate_pool does.
       Transfer transfer;
@@ -1010,21 +1011,25 @@ class SegmentFiltering {
   /// The clusters whose path-conditioned junction sums factorise: the transfer factorises
   /// (transfer_factorisation) and every start is Lambertian with one normal and leaves its
   /// front side, so q_l(s | s') is the same for every potential light technique s'.
+  template <class P = SerialFor>
   void conditioned_factorisation(const Scn& scene, const Pool& pool, const Clustering<T>& clustering,
-                                 std::vector<std::uint8_t>& factorised, std::vector<S>& diffuse, FilteringStats& stats) const {
-    transfer_factorisation(scene, pool, clustering, factorised, diffuse, stats);
+                                 std::vector<std::uint8_t>& factorised, std::vector<S>& diffuse, FilteringStats& stats,
+                                 const P& parallel_for = {}) const {
+    transfer_factorisation(scene, pool, clustering, factorised, diffuse, stats, parallel_for);
     const auto refs = clustering.refs();
     const auto x_of = [&](std::uint32_t s) -> const SurfacePoint<T>& { return pool.segments[s].x; };
-    for (std::size_t c = 0; c < factorised.size(); ++c) {
-      if (!factorised[c]) continue;
+    std::vector<std::uint8_t> dropped(factorised.size(), 0);
+    parallel_for(factorised.size(), [&](std::size_t c) {
+      if (!factorised[c]) return;
       const Cluster<T>& cl = clustering.clusters()[c];
       bool ok = common_lambertian_normal(scene, x_of, refs, cl.begin, cl.middle).has_value();
       for (std::uint32_t r = cl.begin; r < cl.middle && ok; ++r) {
         const std::uint32_t sp = refs[r].segment;
         ok = glm::dot(pool.first_direction[sp], pool.segments[sp].x.normal) > one_sided_epsilon<T>;
       }
-      if (!ok) factorised[c] = 0, stats.factorised_transfer_clusters -= 1;
-    }
+      if (!ok) factorised[c] = 0, dropped[c] = 1;
+    });
+    for (const auto d : dropped) stats.factorised_transfer_clusters -= d;
   }
 
   /// Step 4: the MMIS denominators D(s) of every pooled segment (N39), voxel support; with
@@ -1353,17 +1358,19 @@ class SegmentFiltering {
   /// Where every segment ending in a cluster has a Lambertian end with one normal, and every
   /// segment starting there leaves above it, f_r(s, s') = chain(s) albedo(y_s) / pi: the
   /// propagation sum is computed once per cluster.
+  template <class P = SerialFor>
   void transfer_factorisation(const Scn& scene, const Pool& pool, const Clustering<T>& clustering,
-                              std::vector<std::uint8_t>& factorised, std::vector<S>& diffuse, FilteringStats& stats) const {
+                              std::vector<std::uint8_t>& factorised, std::vector<S>& diffuse, FilteringStats& stats,
+                              const P& parallel_for = {}) const {
     using B = std::remove_cvref_t<decltype(scene.bsdf())>;
     factorised.assign(clustering.clusters().size(), 0);
     diffuse.assign(pool.size(), S(T(0)));
     if constexpr (HasLambertianAlbedo<B, S>) {
       const auto& bsdf = scene.bsdf();
       const auto refs = clustering.refs();
-      for (std::size_t c = 0; c < factorised.size(); ++c) {
+      parallel_for(factorised.size(), [&](std::size_t c) {
         const Cluster<T>& cl = clustering.clusters()[c];
-        if (cl.middle == cl.end || cl.begin == cl.middle) continue;
+        if (cl.middle == cl.end || cl.begin == cl.middle) return;
         // A black Lambertian end (an emitter that reflects nothing) has f_r = 0 = diffuse
         // whatever its normal and directions: next-event segments end on such lights in crowds.
         const SurfacePoint<T>* first = nullptr;
@@ -1380,8 +1387,8 @@ class SegmentFiltering {
         for (std::uint32_t r = cl.begin; r < cl.middle && ok && first; ++r)
           ok = glm::dot(pool.first_direction[refs[r].segment], first->normal) > one_sided_epsilon<T>;
         factorised[c] = ok ? 1 : 0;
-        stats.factorised_transfer_clusters += ok ? 1 : 0;
-      }
+      });
+      for (const auto f : factorised) stats.factorised_transfer_clusters += f;
     }
   }
 

@@ -265,7 +265,8 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 /// `factorised[c]` (optional, one per cluster) marks clusters where link(s, s') = diffuse[s]
 /// for every s ending and s' starting there and light_pair(s, s') is the same for every s'
 /// with conditioned_potential (Lambertian ends and starts with one normal): their junctions are
-/// summed per flag class of s' (three classes), O(#ending + #starting) instead of the product.
+/// summed per flag class of s' (three classes), O(#ending + #starting) instead of the product;
+/// each ending slot then keeps its three class junctions (3 x 24 bytes for Rgb<float>).
 ///
 /// `junction_cache_bytes`: the general clusters whose ConditionedJunction table (one per pair,
 /// sizeof(detail::ConditionedJunction<S>) bytes) fits in this budget, in cluster order, call link and
@@ -301,8 +302,12 @@ std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& cluste
     const std::uint32_t sp = starting_segment[j];
     start[j] = {in.geometry[sp], detail::conditioned_forced_weight(in, sp), clustering.ending_slot_of(sp), in.flags[sp]};
   });
-  // In a factorised cluster q_l(s | s') is the same for every potential s': once per pool.
-  std::vector<T> ending_light(factorised.empty() ? 0 : ending_segment.size(), T(0));
+  // Classes of s' in a factorised cluster: 0 not a potential light technique, 1 potential,
+  // 2 light technique sample. There q_l(s | s') is the same for every potential s', so each
+  // ending slot has three junctions, one per class, fixed for the whole propagation.
+  constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
+                                           conditioned_potential | conditioned_light_technique | conditioned_light_born};
+  std::vector<std::array<detail::ConditionedJunction<S>, 3>> class_junction(factorised.empty() ? 0 : ending_segment.size());
   if (!factorised.empty()) {
     parallel_for(clusters.size(), [&](std::size_t c) {
       if (!factorised[c]) return;
@@ -310,9 +315,14 @@ std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& cluste
       std::uint32_t representative = no_cluster;
       for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j)
         if (start[j].geometry > T(0) && (start[j].flags & conditioned_potential)) representative = starting_segment[j];
-      if (representative == no_cluster) return;
       const std::uint32_t first = cl.ending_slot(cl.middle);
-      for (std::uint32_t i = first; i < first + cl.ending_count(); ++i) ending_light[i] = in.light_pair(ending_segment[i], representative);
+      for (std::uint32_t i = first; i < first + cl.ending_count(); ++i) {
+        const T ql = representative == no_cluster ? T(0) : T(in.light_pair(ending_segment[i], representative));
+        const S transfer = ending_diffuse[i] * cl.kernel;
+        for (int k_class = 0; k_class < 3; ++k_class)
+          class_junction[i][k_class] =
+              detail::conditioned_coefficients(end[i], class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0));
+      }
     });
   }
   // The junction of ending slot i and starting slot j of a general cluster with kernel K.
@@ -367,9 +377,6 @@ std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& cluste
       const std::uint32_t first_ending = cl.ending_slot(cl.middle), last_ending = first_ending + cl.ending_count();
       const std::uint32_t first_starting = cl.slot, last_starting = cl.slot + cl.starting_count();
       if (!factorised.empty() && factorised[c]) {
-        // Classes of s': 0 not a potential light technique, 1 potential, 2 light technique sample.
-        constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
-                                                 conditioned_potential | conditioned_light_technique | conditioned_light_born};
         // The sums over the starts of each class, but for slot `skip` (none: no_cluster).
         auto class_sums = [&](std::uint32_t skip) {
           std::array<ConditionedValues<S>, 3> sum{};
@@ -386,10 +393,7 @@ std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& cluste
         };
         auto values_of = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
           ConditionedValues<S> acc = emission[i];
-          const S transfer = ending_diffuse[i] * cl.kernel;
-          const T ql = ending_light[i];
-          for (int k_class = 0; k_class < 3; ++k_class)
-            detail::conditioned_junction(end[i], class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0), sum[k_class], acc);
+          for (int k_class = 0; k_class < 3; ++k_class) detail::apply_junction(class_junction[i][k_class], sum[k_class], acc);
           return acc;
         };
         const std::array<ConditionedValues<S>, 3> all = class_sums(no_cluster);
