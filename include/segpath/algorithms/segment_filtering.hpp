@@ -24,7 +24,9 @@
 //     with the voxel kernel K_C = 1 / (area of the cluster's mean plane in the voxel). Dirac
 //     light ends (point lights, the sun) only light sampling can produce: D = N_L p_L (plus
 //     the next-event term);
-//  5. propagation over clusters, max_length - 1 Jacobi iterations, from L_e;
+//  5. propagation over clusters, max_length - 1 Jacobi iterations, from L_e; a segment never
+//     joins itself, nor is it its own technique sample in step 4 (a chain that uses one sample
+//     twice is not a path sample; propagation/propagate.hpp);
 //  6. gather: pixel p += W G L(s_1) / D(s_1) over its sensor segments.
 // BDPF weights a chain path-conditioned by default (FilteringWeighting): the paper's prod_i
 // 1 / D(s_i) is biased where camera and light technique samples share clusters (D(s_i) counts
@@ -63,9 +65,10 @@
 //    path-conditioned weighting removes it (tests/algorithms/segment_filtering_test.cpp).
 //  - Path-conditioned weighting: left is a technique sample that is the pool successor of a
 //    chain segment without being in the chain (its presence depends on how the chain was
-//    drawn), O(1 / technique samples per cluster); bridge segments' density is taken as it is
-//    (its target count includes the path neighbours); it costs ~2.4x the paper's propagation
-//    on box 1, 1.5x its iteration (four values per segment, one more BSDF pdf per junction);
+//    drawn), O(1 / technique samples per cluster); revisits of a sample other than s -> s;
+//    bridge segments' density is taken as it is (its target count includes the path
+//    neighbours); it costs ~1.6x the paper's iteration on box 1 (four values per segment, one
+//    more BSDF pdf per junction, the light side of every denominator);
 //    it reads light path depths from the pool order (build_pool keeps light paths contiguous;
 //    a light-born chain counts as one segment there, while trace_light_path counts its delta
 //    bounces against max_length, so D_lt is approximate for chains near max_length)
@@ -73,7 +76,8 @@
 // Beyond the paper: a cluster whose camera (light) technique points are all Lambertian with
 // one shading normal has technique densities independent of the technique sample, so its sum
 // is m p(s) (O(n) instead of O(n m)); with every ending point Lambertian with one normal, the
-// transfer factorises too (propagation/propagate.hpp).
+// transfer factorises too (propagation/propagate.hpp); black ends (an emitter that reflects
+// nothing) factorise whatever their normal and directions.
 #pragma once
 
 #include "segpath/concepts/scene.hpp"
