@@ -282,6 +282,20 @@ TEST_CASE("VCM at a small radius agrees with PT per tile on box 1", "[renderer][
 //    test below); the tests run BDPF with its default, path-conditioned weighting.
 namespace {
 
+using Filter = segpath::SegmentFiltering<renderer::ThreadCountingScene>;
+
+/// Iteration 1's pool of `filter` on `scene`, clustered on voxels of size `cell`.
+struct ClusteredPool {
+  Filter::Pool pool;
+  segpath::Clustering<float> clustering;
+};
+ClusteredPool clustered_pool(const Filter& filter, const renderer::ThreadCountingScene& scene, float cell) {
+  ClusteredPool p;
+  filter.build_pool(scene, 1, p.pool, segpath::SerialFor{});
+  filter.cluster(scene, filter.grid(cell, 1), p.pool, p.clustering);
+  return p;
+}
+
 void check_filtering_bias(const std::string& name, std::uint64_t iterations) {
   const Tiles tiles = square_tiles();
   const RenderScene scene = renderer::make_cornell(1, size, size);
@@ -323,17 +337,15 @@ void check_filtering_bias(const std::string& name, std::uint64_t iterations) {
 // are measured by etendue (area x solid angle at x). Every denominator, recomputed by
 // enumerating the pool, with next-event segments on.
 TEST_CASE("BDPF denominators on box 1 count chains from both sides and next-event segments", "[renderer]") {
-  using Filter = segpath::SegmentFiltering<renderer::ThreadCountingScene>;
   const RenderScene cornell = renderer::make_cornell(1, 16, 16);
   const renderer::ThreadCountingScene scene(cornell);
   segpath::FilteringOptions<float> o;
   o.light_path_ratio = 1;
   o.next_event = true;
   const Filter filter(o);
-  Filter::Pool pool;
-  filter.build_pool(scene, 1, pool, segpath::SerialFor{});
-  segpath::Clustering<float> clustering;
-  filter.cluster(scene, filter.grid(0.3f, 1), pool, clustering);
+  ClusteredPool clustered = clustered_pool(filter, scene, 0.3f);
+  auto& pool = clustered.pool;
+  const auto& clustering = clustered.clustering;
   segpath::FilteringStats stats;
   Filter::LightSide side;
   filter.compute_densities(scene, pool, clustering, stats, segpath::SerialFor{}, &side);
@@ -360,16 +372,13 @@ TEST_CASE("BDPF denominators on box 1 count chains from both sides and next-even
 // factorise (the sum over starts is never needed). Before, one end arriving from the emitter's
 // back made the whole cluster general, ~30 M pairs per iteration at 512 x 512.
 TEST_CASE("BDPF on box 1: clusters with next-event ends on the black emitter factorise, same image", "[renderer]") {
-  using Filter = segpath::SegmentFiltering<renderer::ThreadCountingScene>;
   const RenderScene cornell = renderer::make_cornell(1, 48, 48);
   const renderer::ThreadCountingScene scene(cornell);
   segpath::FilteringOptions<float> o;
   o.next_event = true;
   const Filter filter(o);
-  Filter::Pool pool;
-  filter.build_pool(scene, 1, pool, segpath::SerialFor{});
-  segpath::Clustering<float> clustering;
-  filter.cluster(scene, filter.grid(0.06f, 1), pool, clustering);
+  const ClusteredPool clustered = clustered_pool(filter, scene, 0.06f);
+  const auto& [pool, clustering] = clustered;
   std::vector<std::uint8_t> factorised;
   std::vector<renderer::Color> diffuse;
   segpath::FilteringStats stats;
