@@ -97,6 +97,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <iterator>
 #include <optional>
 #include <span>
 #include <stdexcept>
@@ -308,7 +309,7 @@ class SegmentFiltering {
         propagate_pool(scene, pool, clustering, iterations, radiance, weighted_geometry, stats, parallel_for);
         // Propagation: diffuse when factorising, the transfer and the workspace.
         propagation_bytes = (options_.factorise ? sizeof(S) : 0) + Transfer::bytes_per_segment() +
-                            PairCache<S>::bytes_per_segment + PropagationWorkspace<S>::bytes_per_segment;
+                            PairCache::bytes_per_segment + PropagationWorkspace<S>::bytes_per_segment;
       }
     } else {
       DiskJunctions<T> junctions;
@@ -740,12 +741,13 @@ class SegmentFiltering {
     }
   };
 
-  /// What propagation evaluates per (ending slot i, starting slot j) pair of the clusters that
-  /// are not factorised (f_r(s, s') chain(s), and for the path-conditioned weighting q_l),
-  /// evaluated once per pool instead of once per sweep, cluster by cluster in order while they
-  /// fit in a byte budget (a cluster that does not fit is skipped, later smaller ones may still fit).
-  template <class V>
+  /// f_r(s, s') chain(s) of the paper weighting's propagation per (ending slot i, starting slot
+  /// j) pair of the clusters that are not factorised, evaluated once per pool instead of once
+  /// per sweep, cluster by cluster in order while they fit in a byte budget (a cluster that does
+  /// not fit is skipped, later smaller ones may still fit). The path-conditioned weighting keeps
+  /// whole junctions instead (propagate_conditioned's junction table).
   struct PairCache {
+    using V = S;
     static constexpr std::int64_t no_row = -(std::int64_t(1) << 62);
     std::vector<V> value;
     std::vector<std::int64_t> row;  ///< per ending slot i: value[row[i] + j] for starting slot j, or no_row
@@ -802,7 +804,7 @@ class SegmentFiltering {
   /// A TransferLink that reads the pairs a PairCache holds.
   struct CachedTransferLink {
     TransferLink link;
-    const PairCache<S>& cache;
+    const PairCache& cache;
     S operator()(std::uint32_t s, std::uint32_t sp, std::uint32_t i, std::uint32_t j) const noexcept {
       const S* cached = cache.find(i, j);
       return cached ? *cached : link(s, sp, i, j);
@@ -823,7 +825,7 @@ class SegmentFiltering {
     Transfer transfer;
     transfer.build(pool, clustering, factorised, parallel_for);
     const TransferLink link{scene.bsdf(), transfer};
-    PairCache<S> cache;
+    PairCache cache;
     cache.build([&](std::uint32_t i, std::uint32_t j) { return link(0, 0, i, j); }, clustering, factorised,
                 options_.transfer_cache_bytes, parallel_for);
     stats.transfer_cache_bytes = cache.value.size() * sizeof(S);
