@@ -16,7 +16,7 @@
 #include "segpath/concepts/scene.hpp"
 #include "segpath/concepts/sensor.hpp"
 #include "segpath/config.hpp"
-#include "segpath/core/contribution.hpp"
+#include "segpath/integrand/contribution.hpp"
 #include "segpath/core/drop.hpp"
 #include "segpath/core/frame.hpp"
 #include "segpath/core/framebuffer.hpp"

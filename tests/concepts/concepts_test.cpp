@@ -3,7 +3,7 @@
 // runtime checks that the archetypes (archetypes.hpp) work with the library's functions.
 #include <cstdint>
 #include <optional>
-#include <segpath/core/contribution.hpp>
+#include <segpath/integrand/contribution.hpp>
 #include <segpath/core/rng.hpp>
 #include <segpath/core/segment.hpp>
 #include <segpath/kernels/dirac.hpp>

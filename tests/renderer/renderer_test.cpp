@@ -8,7 +8,7 @@
 #include "integrators.hpp"
 #include "tbb_parallel.hpp"
 
-#include <segpath/core/contribution.hpp>
+#include <segpath/integrand/contribution.hpp>
 #include <segpath/samplers/sensor_start.hpp>
 #include <segpath/testing/statistics.hpp>
 

@@ -1,5 +1,5 @@
 // Segment samplers of SPEC 1.6: concepts, sample/pdf agreement, weight = factor / pdf,
-// factors equal to core/contribution.hpp's, finite output at the ends of the uniform range,
+// factors equal to integrand/contribution.hpp's, finite output at the ends of the uniform range,
 // rejection where the density is zero, and normalisation (uniform analytically, ray-traced
 // and BSDF-directed by Monte Carlo against the acceptance rate).
 #include <segpath/kernels/dirac.hpp>

@@ -81,7 +81,7 @@
 #pragma once
 
 #include "segpath/concepts/scene.hpp"
-#include "segpath/core/contribution.hpp"
+#include "segpath/integrand/contribution.hpp"
 #include "segpath/core/framebuffer.hpp"
 #include "segpath/core/parallel.hpp"
 #include "segpath/kernels/progressive_radius.hpp"

@@ -18,7 +18,7 @@
 #include "segpath/concepts/estimator.hpp"
 #include "segpath/concepts/kernel.hpp"
 #include "segpath/concepts/scene.hpp"
-#include "segpath/core/contribution.hpp"
+#include "segpath/integrand/contribution.hpp"
 #include "segpath/estimators/multi_technique.hpp"
 #include "segpath/samplers/light_start.hpp"
 #include "segpath/weights/mmis.hpp"

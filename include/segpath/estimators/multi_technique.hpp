@@ -20,7 +20,7 @@
 #include "segpath/concepts/estimator.hpp"
 #include "segpath/concepts/kernel.hpp"
 #include "segpath/concepts/scene.hpp"
-#include "segpath/core/contribution.hpp"
+#include "segpath/integrand/contribution.hpp"
 #include "segpath/samplers/bridge.hpp"
 #include "segpath/samplers/next_segment.hpp"
 #include "segpath/samplers/sensor_start.hpp"

@@ -171,7 +171,7 @@ class LightBridgeSampler {
 /// x_1 is the origin of sensor().sample_ray for pixel 0 with its pdf_position (the position
 /// sampling of a pinhole, discrete probability 1, or of a lens, must not depend on the
 /// pixel); the pixel s_1 lands in is sensor().importance(x_1, s^_1) (sensor_factor in
-/// core/contribution.hpp). The (N17) factors it carries: W(s_1) G(s_1) K(s_1, s_2); the BSDF
+/// integrand/contribution.hpp). The (N17) factors it carries: W(s_1) G(s_1) K(s_1, s_2); the BSDF
 /// f_r(s_1, s_2) at y_1 is the estimator's connection term. weight = W G (K / p_K) / p_pos.
 template <Scene Scn, Kernel K>
   requires std::same_as<typename K::Scalar, typename Scn::Scalar>

@@ -6,7 +6,7 @@
 #include "segpath/concepts/kernel.hpp"
 #include "segpath/concepts/sampler.hpp"
 #include "segpath/concepts/scene.hpp"
-#include "segpath/core/contribution.hpp"
+#include "segpath/integrand/contribution.hpp"
 #include "segpath/core/geometry.hpp"
 
 #include <optional>
