@@ -1,6 +1,6 @@
 // Propagation (Algorithm 1) costs, on BDPF pools of the periodic slab seen through a pinhole:
 //  - one Jacobi iteration against the number of segments, 2e4 .. 2e6, as
-//    SegmentFiltering::propagate_pool runs it (link from SegmentFiltering::Transfer), inputs
+//    filtering::propagate_pool runs it (link from filtering::Transfer), inputs
 //    gathered into slot order beforehand: the log-log slope (of CPU time) is printed at the end
 //    (target <= 1.1: linear);
 //  - that gathering, once per pool (Transfer::build and prepare_propagation), same sizes;
@@ -56,6 +56,7 @@ FilteringOptions<T> options(bool factorise) {
   FilteringOptions<T> o;
   o.max_length = 6;
   o.light_path_ratio = 0.25;
+  o.next_event = false;
   o.factorise = factorise;
   return o;
 }
@@ -64,24 +65,26 @@ FilteringOptions<T> options(bool factorise) {
 struct Prepared {
   Slab scene;
   Filter filter;
-  Filter::Pool pool;
+  Filter::Context context;
+  const Filter::Pool& pool;
   Clustering<T> clustering;
   std::vector<T> weighted_geometry;
-  Filter::Transfer transfer;
-  FilteringStats stats;
+  filtering::Transfer<Slab> transfer;
+  const FilteringStats& stats;
 
-  Prepared(std::uint32_t size, T cell, bool factorise) : scene(size), filter(options(factorise)) {
-    filter.build_pool(scene, 1, pool, SerialFor{});
-    filter.cluster(scene, filter.grid(cell, 1), pool, clustering);
-    filter.compute_densities(scene, pool, clustering, stats, SerialFor{});
+  Prepared(std::uint32_t size, T cell, bool factorise)
+      : scene(size), filter(options(factorise)), context(filter.context(scene, 0)), pool(context.pool), stats(context.stats) {
+    filter.build_pool(context);
+    filtering::cluster(context, filtering::grid(filter.options(), cell, context.stream), clustering, SerialFor{});
+    filtering::compute_densities(context, clustering, SerialFor{});
     weighted_geometry.resize(pool.size());
     for (std::size_t i = 0; i < pool.size(); ++i)
       weighted_geometry[i] = pool.density[i] > 0 ? pool.geometry[i] / pool.density[i] : 0;
     transfer.build(pool, clustering);
   }
 
-  /// The link of SegmentFiltering::propagate_pool.
-  Filter::TransferLink link() const { return {scene.bsdf(), transfer}; }
+  /// The link of filtering::propagate_pool.
+  filtering::TransferLink<Slab> link() const { return {scene.bsdf(), transfer}; }
   /// The same by segment ids, for the naive recursion.
   auto id_link() const {
     return [this](std::uint32_t s, std::uint32_t sp) {
@@ -119,16 +122,16 @@ void BM_propagation_iteration(benchmark::State& state) {
 BENCHMARK(BM_propagation_iteration)->Arg(10000)->Arg(30000)->Arg(100000)->Arg(300000)->Arg(1000000)->Unit(benchmark::kMillisecond)->Complexity();
 
 void BM_pool_preparation(benchmark::State& state) {
-  // Once per pool (render iteration): the link's copies (SegmentFiltering::Transfer) and the
+  // Once per pool (render iteration): the link's copies (filtering::Transfer) and the
   // inputs in slot order.
   const std::uint32_t side = side_for(double(state.range(0)));
   const Prepared p(side, 0.6 * 4.0 / side, false);
-  Filter::Transfer transfer;
+  filtering::Transfer<Slab> transfer;
   PropagationWorkspace<T> workspace;
   for (auto _ : state) {
     transfer.build(p.pool, p.clustering);
-    const Filter::TransferLink link{p.scene.bsdf(), transfer};
-    prepare_propagation(PropagationInputs<T, Filter::TransferLink>{p.clustering, p.pool.emitted, p.weighted_geometry, link},
+    const filtering::TransferLink<Slab> link{p.scene.bsdf(), transfer};
+    prepare_propagation(PropagationInputs<T, filtering::TransferLink<Slab>>{p.clustering, p.pool.emitted, p.weighted_geometry, link},
                         workspace);
     benchmark::DoNotOptimize(workspace.source.data());
   }
@@ -141,16 +144,16 @@ void BM_occupancy(benchmark::State& state) {
   const double cell = double(state.range(0)) / 100.0;
   const bool factorise = state.range(1) != 0;
   Prepared p(128, T(cell), factorise);
+  const double pair_evaluations = double(p.stats.pair_evaluations);  // of one denominator pass
   std::vector<T> radiance, scratch;
   for (auto _ : state) {
-    FilteringStats stats;
-    p.filter.compute_densities(p.scene, p.pool, p.clustering, stats, SerialFor{});
+    filtering::compute_densities(p.context, p.clustering, SerialFor{});
     std::vector<T> weighted_geometry;
-    p.filter.propagate_pool(p.scene, p.pool, p.clustering, 1, radiance, weighted_geometry, stats);
+    filtering::propagate_pool(p.context, p.clustering, 1, radiance, weighted_geometry, SerialFor{});
     benchmark::DoNotOptimize(radiance.data());
   }
   state.counters["per_cluster"] = double(p.pool.size()) / double(p.clustering.clusters().size());
-  state.counters["pair_evaluations"] = double(p.stats.pair_evaluations);
+  state.counters["pair_evaluations"] = pair_evaluations;
   state.SetLabel(factorise ? "factorised" : "O(n m) sums");
 }
 BENCHMARK(BM_occupancy)->ArgsProduct({{5, 10, 20, 40}, {0, 1}})->Unit(benchmark::kMillisecond);
@@ -162,7 +165,7 @@ void BM_naive_vs_propagation(benchmark::State& state) {
   const auto link = p.id_link();
   std::vector<std::uint32_t> sensor;
   for (std::uint32_t i = 0; i < p.pool.size(); ++i)
-    if (p.pool.flags[i] & Filter::sensor_segment) sensor.push_back(i);
+    if (p.pool.flags[i] & filtering::sensor_segment) sensor.push_back(i);
   const PropagationInputs<T, decltype(link)> in{p.clustering, p.pool.emitted, p.weighted_geometry, link};
   std::vector<T> radiance, scratch;
   for (auto _ : state) {
@@ -185,17 +188,18 @@ void BM_clustering_build(benchmark::State& state) {
   const std::uint32_t side = side_for(double(state.range(0)));
   const Slab scene(side);
   const Filter filter(options(false));
-  Filter::Pool pool;
-  filter.build_pool(scene, 1, pool, SerialFor{});
-  const auto grid = filter.grid(0.6 * 4.0 / side, 1);
+  Filter::Context context = filter.context(scene, 0);
+  filter.build_pool(context);
+  const auto& pool = context.pool;
+  const auto grid = filtering::grid(filter.options(), T(0.6 * 4.0 / side), context.stream);
   Clustering<T> clustering;
   clustering.force_comparison_sort(state.range(1) == 0);
   const bool two_threads = state.range(2) == 2;
   for (auto _ : state) {
     if (two_threads)
-      clustering.build(grid, std::span<const Segment<T>>(pool.segments), Filter::canonical_map(scene), segpath::testing::TwoThreadFor{});
+      clustering.build(grid, std::span<const Segment<T>>(pool.segments), filtering::canonical_map(scene), segpath::testing::TwoThreadFor{});
     else
-      clustering.build(grid, std::span<const Segment<T>>(pool.segments), Filter::canonical_map(scene), SerialFor{});
+      clustering.build(grid, std::span<const Segment<T>>(pool.segments), filtering::canonical_map(scene), SerialFor{});
     benchmark::DoNotOptimize(clustering.clusters().data());
   }
   state.counters["segments"] = double(pool.size());

@@ -53,13 +53,13 @@ struct MethodOptions {
   std::uint64_t seed = 1;
   std::size_t max_length = 10;  ///< segments per path, the camera segment included
   std::optional<double> radius;  ///< kernel radius (VCM family) or voxel size (filtering); unset: method default
-  std::optional<double> alpha;   ///< progressive reduction, in (0, 1); unset: 0.75 (VCM family), 0.67 (filtering)
-  std::optional<double> beta;    ///< light paths per camera path (> 0); unset: 1
+  std::optional<double> alpha;   ///< progressive reduction, in (0, 1); unset: the method's library default
+  std::optional<double> beta;    ///< light paths per camera path (> 0); unset: the method's library default
   segpath::FilteringSupport support = segpath::FilteringSupport::voxel;  ///< filtering: junction support
   bool bridges = false;          ///< bdpf: add bridge segments
-  bool next_event = true;        ///< mvf, bdpf: add next-event segments (best at equal time on box 1)
+  bool next_event = segpath::FilteringOptions<float>{}.next_event;  ///< mvf, bdpf: add next-event segments
   /// bdpf: chain weighting, path-conditioned (unbiased) or the paper's prod 1 / D
-  segpath::FilteringWeighting weighting = segpath::FilteringWeighting::path_conditioned;
+  segpath::FilteringWeighting weighting = segpath::FilteringOptions<float>{}.weighting;
   bool print_stats = false;      ///< mvf, phf, bdpf: one line of FilteringStats per iteration on stderr
 };
 
@@ -329,12 +329,12 @@ class VcmMethod {
 
  private:
   segpath::VcmOptions vcm_options(double radius) const {
-    segpath::VcmOptions v;
+    segpath::VcmOptions v;  // the library's defaults, but for what the command line set
     v.mode = Mode;
     v.max_length = options_.max_length;
     v.initial_radius = radius;
-    v.alpha = options_.alpha.value_or(0.75);
-    v.light_path_factor = options_.beta.value_or(1.0);
+    if (options_.alpha) v.alpha = *options_.alpha;
+    if (options_.beta) v.light_path_factor = *options_.beta;
     v.seed = options_.seed;
     return v;
   }
@@ -368,8 +368,8 @@ class FilteringMethod {
     if (!initial_cell_) initial_cell_ = filter_.initial_cell_size(counting);
     if (!image_ || image_->pixel_count() != accumulate.pixel_count()) image_.emplace(accumulate.width(), accumulate.height());
     image_->clear();
-    const segpath::FilteringStats f = filter_.render_iteration(
-        counting, iteration + 1, filter_.cell_size(*initial_cell_, iteration + 1), *image_, stats.dropped, parallel);
+    const segpath::FilteringStats f = filter_.render_iteration_at_cell(
+        counting, iteration, filter_.cell_size(*initial_cell_, iteration), *image_, stats.dropped, parallel);
     if (print_stats_) print(iteration, f);
     stats.rays += counting.take_rays();
     stats.paths += accumulate.pixel_count();
@@ -378,16 +378,16 @@ class FilteringMethod {
 
  private:
   static segpath::FilteringOptions<T> filtering_options(const MethodOptions& o) {
-    segpath::FilteringOptions<T> f;
+    segpath::FilteringOptions<T> f;  // the library's defaults, but for what the command line set
     f.mode = Mode;
     f.max_length = o.max_length;
-    f.light_path_ratio = T(o.beta.value_or(1.0));
-    f.initial_cell_size = T(o.radius.value_or(0.0));
-    f.alpha = T(o.alpha.value_or(0.67));
+    if (o.beta) f.light_path_ratio = T(*o.beta);
+    if (o.radius) f.initial_cell_size = T(*o.radius);
+    if (o.alpha) f.alpha = T(*o.alpha);
     f.seed = o.seed;
     f.support = o.support;
     f.bridges = o.bridges;
-    f.next_event = o.next_event && Mode != segpath::FilteringMode::phf;
+    f.next_event = o.next_event;
     f.weighting = o.weighting;
     return f;
   }

@@ -50,8 +50,8 @@ struct Options {
   std::optional<double> alpha, beta;
   std::string support = "voxel";
   bool bridges = false;
-  bool next_event = true;
-  std::string weighting = "path";
+  bool next_event = segpath::FilteringOptions<float>{}.next_event;
+  std::string weighting = segpath::to_string(segpath::FilteringOptions<float>{}.weighting);
   bool stats = false;
   std::vector<std::string> out;
   std::optional<std::string> reference;

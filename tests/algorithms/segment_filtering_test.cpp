@@ -14,6 +14,7 @@
 #include <thread>
 #include <vector>
 
+#include "custom_technique/cosine_surface_sampler.hpp"
 #include "support/catch.hpp"
 #include "support/filtering_denominators.hpp"
 
@@ -64,10 +65,10 @@ TEST_CASE("segment filtering: bad options are rejected", "[algorithms]") {
   o.alpha = 1;
   CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
   o = {};
-  o.next_event = true;  // from camera technique points, which PhF has none of
-  CHECK_NOTHROW(SegmentFiltering<Scn>(o));
+  o.next_event = true;  // from camera technique points, which PhF has none of: it draws none
   o.mode = FilteringMode::phf;
-  CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
+  CHECK_NOTHROW(SegmentFiltering<Scn>(o));
+  CHECK_FALSE(filtering::technique_set(o).next_event);
 }
 
 TEST_CASE("segment filtering: factorised clusters give the same image", "[algorithms]") {
@@ -83,8 +84,8 @@ TEST_CASE("segment filtering: factorised clusters give the same image", "[algori
     SegmentFiltering<PhotographedSlab<double>> slow(o);
     Framebuffer<double> a(8, 8), b(8, 8);
     DropCounters drops;
-    const auto sa = fast.render_iteration(scene, 1, 0.3, a, drops);
-    const auto sb = slow.render_iteration(scene, 1, 0.3, b, drops);
+    const auto sa = fast.render_iteration_at_cell(scene, 0, 0.3, a, drops);
+    const auto sb = slow.render_iteration_at_cell(scene, 0, 0.3, b, drops);
     INFO("mode " << to_string(mode));
     CHECK(sa.factorised_camera_clusters + sa.factorised_light_clusters > 0);
     CHECK(sb.factorised_camera_clusters + sb.factorised_light_clusters == 0);
@@ -102,8 +103,8 @@ TEST_CASE("segment filtering: the image does not depend on the thread count", "[
   const SegmentFiltering<PhotographedSlab<double>> bdpf(o);
   Framebuffer<double> a(8, 8), b(8, 8);
   DropCounters drops;
-  bdpf.render_iteration(scene, 3, 0.3, a, drops, SerialFor{});
-  bdpf.render_iteration(scene, 3, 0.3, b, drops, segpath::testing::TwoThreadFor{});
+  bdpf.render_iteration_at_cell(scene, 2, 0.3, a, drops, SerialFor{});
+  bdpf.render_iteration_at_cell(scene, 2, 0.3, b, drops, segpath::testing::TwoThreadFor{});
   for (std::uint32_t p = 0; p < 64; ++p) CHECK(a[p] == b[p]);
 }
 
@@ -136,7 +137,7 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
     DropCounters drops;
     for (std::uint64_t it = 1; it <= 60; ++it) {
       Framebuffer<double> image(16, 16);
-      method.render_iteration(scene, it, 0.5, image, drops);
+      method.render_iteration_at_cell(scene, it - 1, 0.5, image, drops);
       double mean = 0;
       for (auto v : image.pixels()) mean += v;
       stats.add(mean / 256.0);
@@ -164,7 +165,7 @@ TEST_CASE("the BDPF furnace test has the power to see a 1 % error", "[algorithms
   for (std::uint64_t it = 1; it <= 40; ++it) {
     Framebuffer<double> image(16, 16);
     DropCounters drops;
-    right.render_iteration(scene, it, 0.5, image, drops);
+    right.render_iteration_at_cell(scene, it - 1, 0.5, image, drops);
     double mean = 0;
     for (auto v : image.pixels()) mean += v;
     good.add(mean / 256.0);
@@ -176,27 +177,7 @@ TEST_CASE("the BDPF furnace test has the power to see a 1 % error", "[algorithms
 
 namespace {
 
-/// The sphere interior seen from its centre through a 90-degree pinhole: a closed Lambertian
-/// furnace without periodic images, where the disk support is exact (a cap of chord radius r
-/// has area pi r^2).
-class PhotographedSphere : public testing::SphereInterior<double> {
- public:
-  explicit PhotographedSphere(std::uint32_t size)
-      : testing::SphereInterior<double>(testing::SphereInteriorParameters<double>{}, {{0, 0, -1}}), camera_([&] {
-          PinholeCameraParameters<double> c;
-          c.position = {0, 0, 0};
-          c.forward = {0, 0, -1};
-          c.right = {1, 0, 0};
-          c.up = {0, 1, 0};
-          c.width = c.height = size;
-          c.fov_x_degrees = c.fov_y_degrees = 90;
-          return c;
-        }()) {}
-  [[nodiscard]] const PinholeCamera<double>& sensor() const noexcept { return camera_; }
-
- private:
-  PinholeCamera<double> camera_;
-};
+using PhotographedSphere = testing::PhotographedSphereInterior<double>;
 
 /// Canonical position where the scene has one.
 template <class Scn>
@@ -219,13 +200,13 @@ void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, d
     o.bridges = bridges;
     o.next_event = next_event;
     const Filter filter(o);
-    typename Filter::Pool pool;
-    filter.build_pool(scene, 2, pool, SerialFor{});
+    auto ctx = filter.context(scene, 1);
+    filter.build_pool(ctx);
+    const auto& pool = ctx.pool;
     Clustering<double> clustering;
-    filter.cluster(scene, filter.grid(cell, 2), pool, clustering);
-    FilteringStats stats;
-    typename Filter::LightSide side;  // the path-conditioned weighting's light side, computed alongside
-    filter.compute_densities(scene, pool, clustering, stats, SerialFor{}, &side);
+    filtering::cluster(ctx, filtering::grid(o, cell, ctx.stream), clustering, SerialFor{});
+    filtering::LightSide<double> side;  // the path-conditioned weighting's light side, computed alongside
+    filtering::compute_densities(ctx, clustering, SerialFor{}, &side);
     auto kernel = [&](std::uint32_t end, std::uint32_t start) {
       const std::uint32_t c = clustering.cluster_of_y(end);
       return c != no_cluster && c == clustering.cluster_of_x(start) ? clustering.clusters()[c].kernel : 0.0;
@@ -237,7 +218,7 @@ void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, d
     CHECK(with_techniques > checked / 4);  // the pools exercise clusters with several technique samples
     if (bridges) {
       CHECK(pool.bridge_targets > 0);
-      CHECK(std::count_if(pool.flags.begin(), pool.flags.end(), [](auto f) { return (f & Filter::bridge_segment) != 0; }) > 50);
+      CHECK(std::count_if(pool.flags.begin(), pool.flags.end(), [](auto f) { return (f & filtering::bridge_segment) != 0; }) > 50);
     }
   }
 }
@@ -252,12 +233,12 @@ void check_disk_denominators(const Scn& scene, bool bridges, bool next_event, do
   o.bridges = bridges;
   o.next_event = next_event;
   const Filter filter(o);
-  typename Filter::Pool pool;
-  filter.build_pool(scene, 2, pool, SerialFor{});
+  auto ctx = filter.context(scene, 1);
+  filter.build_pool(ctx);
+  const auto& pool = ctx.pool;
   DiskJunctions<double> junctions;
-  filter.join(scene, r, pool, junctions);
-  FilteringStats stats;
-  filter.compute_densities(scene, pool, junctions, stats, SerialFor{});
+  filtering::join(ctx, r, junctions, SerialFor{});
+  filtering::compute_densities(ctx, junctions, SerialFor{});
   // The support predicate written out, not the junction lists the algorithm iterates over.
   auto kernel = [&](std::uint32_t end, std::uint32_t start) {
     const auto& y = pool.segments[end].y;
@@ -284,14 +265,14 @@ TEST_CASE("segment filtering: the transfer cache gives the same image, whole or 
   const SegmentFiltering<PhotographedSphere> uncached(o);
   Framebuffer<double> reference(8, 8);
   DropCounters drops;
-  const auto s0 = uncached.render_iteration(scene, 2, 0.3, reference, drops);
+  const auto s0 = uncached.render_iteration_at_cell(scene, 1, 0.3, reference, drops);
   CHECK(s0.transfer_cache_bytes == 0);
   std::size_t full_bytes = 0;
   for (const std::size_t budget : {std::size_t(1) << 30, std::size_t(4096)}) {
     o.transfer_cache_bytes = budget;
     const SegmentFiltering<PhotographedSphere> cached(o);
     Framebuffer<double> image(8, 8);
-    const auto stats = cached.render_iteration(scene, 2, 0.3, image, drops);
+    const auto stats = cached.render_iteration_at_cell(scene, 1, 0.3, image, drops);
     INFO("budget " << budget << ": cache " << stats.transfer_cache_bytes << " bytes");
     CHECK(stats.transfer_cache_bytes > 0);
     if (full_bytes == 0) full_bytes = stats.transfer_cache_bytes;
@@ -328,8 +309,8 @@ TEST_CASE("segment filtering: disk support, bridges and next-event segments do n
     const SegmentFiltering<PhotographedSphere> bdpf(o);
     Framebuffer<double> a(8, 8), b(8, 8);
     DropCounters drops;
-    const auto stats = bdpf.render_iteration(scene, 3, 0.3, a, drops, SerialFor{});
-    bdpf.render_iteration(scene, 3, 0.3, b, drops, segpath::testing::TwoThreadFor{});
+    const auto stats = bdpf.render_iteration_at_cell(scene, 2, 0.3, a, drops, SerialFor{});
+    bdpf.render_iteration_at_cell(scene, 2, 0.3, b, drops, segpath::testing::TwoThreadFor{});
     INFO(to_string(support));
     CHECK(stats.bridge_segments > 0);
     CHECK(stats.next_event_segments > 0);
@@ -358,7 +339,7 @@ testing::RunningStats image_means(const SegmentFiltering<Scn>& method, const Scn
   testing::RunningStats stats;
   for (std::uint64_t it = 1; it <= iterations; ++it) {
     Framebuffer<double> image(size, size);
-    method.render_iteration(scene, it, cell, image, drops);
+    method.render_iteration_at_cell(scene, it - 1, cell, image, drops);
     double mean = 0;
     for (auto v : image.pixels()) mean += v;
     stats.add(mean / double(size * size));
@@ -444,4 +425,103 @@ TEST_CASE("BDPF's path-conditioned weighting is exact in the sparse slab furnace
                            << (results[1].mean() / expected - 1) * 100 << " % (z " << z_paper << ")");
   CHECK(std::abs(z_path) < 5);
   CHECK(std::abs(z_paper) > 5);  // measured: path-conditioned +0.04 % (z 0.17), paper +3.7 % (z 19)
+}
+
+// A sampler written outside the library (examples/custom_technique/) joins the technique set:
+// its segments are pooled, and N_u p_u(s), written out here from its definition, enters the
+// denominator of every pooled segment it could have drawn, whatever the method and support.
+TEST_CASE("a user's own technique joins the technique set: its density enters every denominator", "[algorithms]") {
+  using Scn = PhotographedSlab<double>;
+  using Cosine = example::CosineSurfaceSampler<Scn>;
+  const Scn scene(furnace, 16);
+  const double per_pixel = 0.5;
+  const double draws = std::round(per_pixel * 256);
+  // N_u p_A(x) cos_x / pi |cos_y| / d^2, the cosine technique's density of pooled segment s.
+  const auto extra_of = [&](const auto& pool) {
+    return [&scene, &pool, draws](std::uint32_t s) {
+      const auto& seg = pool.segments[s];
+      if (seg.x.kind != PointKind::surface || seg.y.kind != PointKind::surface) return 0.0;
+      const Vec3<double> d = seg.y.position - seg.x.position;
+      const double d2 = glm::dot(d, d), cos_x = glm::dot(seg.x.normal, d) / std::sqrt(d2);
+      const double cos_y = std::abs(glm::dot(seg.y.normal, d)) / std::sqrt(d2);
+      return cos_x > 0 ? draws * cos_x / pi<double> * cos_y / d2 / scene.area() : 0.0;
+    };
+  };
+  for (const FilteringMode mode : {FilteringMode::bdpf, FilteringMode::mvf, FilteringMode::phf}) {
+    for (const FilteringSupport support : {FilteringSupport::voxel, FilteringSupport::disk}) {
+      FilteringOptions<double> o;
+      o.mode = mode;
+      o.max_length = 5;
+      o.light_path_ratio = 0.75;
+      o.support = support;
+      const SegmentFiltering<Scn, Cosine> filter(o, FilteringTechnique<Cosine>{Cosine{}, per_pixel});
+      auto ctx = filter.context(scene, 1);
+      filter.build_pool(ctx);
+      const auto& pool = ctx.pool;
+      const auto extras = std::count_if(pool.flags.begin(), pool.flags.end(), [](auto f) { return (f & filtering::extra_technique) != 0; });
+      INFO(to_string(mode) << ", " << to_string(support) << ": " << extras << " segments of the user's technique");
+      CHECK(extras > 50);
+      std::pair<std::size_t, std::size_t> checked;
+      if (support == FilteringSupport::voxel) {
+        Clustering<double> clustering;
+        filtering::cluster(ctx, filtering::grid(o, 0.4, ctx.stream), clustering, SerialFor{});
+        filtering::LightSide<double> side;
+        filtering::compute_densities(ctx, clustering, SerialFor{}, &side);
+        auto kernel = [&](std::uint32_t end, std::uint32_t start) {
+          const std::uint32_t c = clustering.cluster_of_y(end);
+          return c != no_cluster && c == clustering.cluster_of_x(start) ? clustering.clusters()[c].kernel : 0.0;
+        };
+        checked = testing::check_denominators(filter, scene, pool, kernel, extra_of(pool));
+        testing::check_light_side(filter, scene, pool, side, kernel);
+      } else {
+        const double r = 0.25;
+        DiskJunctions<double> junctions;
+        filtering::join(ctx, r, junctions, SerialFor{});
+        filtering::compute_densities(ctx, junctions, SerialFor{});
+        auto kernel = [&](std::uint32_t end, std::uint32_t start) {
+          const auto& y = pool.segments[end].y;
+          const auto& x = pool.segments[start].x;
+          if (y.kind != PointKind::surface || x.kind != PointKind::surface) return 0.0;
+          const Vec3<double> d = canonical(scene, x) - canonical(scene, y);
+          return glm::dot(d, d) < r * r && glm::dot(x.normal, y.normal) >= 0.5 ? 1 / (pi<double> * r * r) : 0.0;
+        };
+        checked = testing::check_denominators(filter, scene, pool, kernel, extra_of(pool));
+      }
+      CHECK(checked.first == pool.size());
+    }
+  }
+}
+
+TEST_CASE("with a user's own technique, MVF, PhF and BDPF stay exact in the periodic-slab furnace", "[algorithms][stat]") {
+  using Scn = PhotographedSlab<double>;
+  using Cosine = example::CosineSurfaceSampler<Scn>;
+  const Scn scene(furnace, 16);
+  const std::size_t max_length = 6;
+  double expected = 0;
+  for (unsigned k = 0; k < max_length; ++k) expected += scene.bounce_radiance(testing::SlabSide::a, k);
+  const FilteringMode modes[] = {FilteringMode::mvf, FilteringMode::phf, FilteringMode::bdpf};
+  const double alpha = testing::sidak_alpha(0.01, std::size(modes));
+  for (const FilteringMode mode : modes) {
+    FilteringOptions<double> o;
+    o.mode = mode;
+    o.max_length = max_length;
+    o.jitter = false;
+    o.seed = 17;
+    const SegmentFiltering<Scn, Cosine> method(o, FilteringTechnique<Cosine>{Cosine{}, 1.0});
+    testing::RunningStats stats;
+    DropCounters drops;
+    std::uint64_t extras = 0;
+    for (std::uint64_t it = 0; it < 400; ++it) {
+      Framebuffer<double> image(16, 16);
+      extras += method.render_iteration_at_cell(scene, it, 0.5, image, drops).extra_segments;
+      double mean = 0;
+      for (auto v : image.pixels()) mean += v;
+      stats.add(mean / 256.0);
+    }
+    INFO(to_string(mode) << " + cosine technique: " << stats.mean() << " +- " << stats.standard_error() << " vs " << expected);
+    CHECK(drops.total() == 0);
+    CHECK(extras > 400 * 100);
+    CHECK_FALSE(testing::student_t_test(stats, expected).rejects(alpha));
+    CHECK(stats.standard_error() < 0.002 * expected);  // the power to see a 1 % error
+  }
 }

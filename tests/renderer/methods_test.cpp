@@ -286,13 +286,14 @@ using Filter = segpath::SegmentFiltering<renderer::ThreadCountingScene>;
 
 /// Iteration 1's pool of `filter` on `scene`, clustered on voxels of size `cell`.
 struct ClusteredPool {
-  Filter::Pool pool;
+  Filter::Context context;
   segpath::Clustering<float> clustering;
 };
 ClusteredPool clustered_pool(const Filter& filter, const renderer::ThreadCountingScene& scene, float cell) {
-  ClusteredPool p;
-  filter.build_pool(scene, 1, p.pool, segpath::SerialFor{});
-  filter.cluster(scene, filter.grid(cell, 1), p.pool, p.clustering);
+  ClusteredPool p{filter.context(scene, 0), {}};
+  filter.build_pool(p.context);
+  segpath::filtering::cluster(p.context, segpath::filtering::grid(filter.options(), cell, p.context.stream), p.clustering,
+                              segpath::SerialFor{});
   return p;
 }
 
@@ -344,15 +345,14 @@ TEST_CASE("BDPF denominators on box 1 count chains from both sides and next-even
   o.next_event = true;
   const Filter filter(o);
   ClusteredPool clustered = clustered_pool(filter, scene, 0.3f);
-  auto& pool = clustered.pool;
+  const auto& pool = clustered.context.pool;
   const auto& clustering = clustered.clustering;
-  segpath::FilteringStats stats;
-  Filter::LightSide side;
-  filter.compute_densities(scene, pool, clustering, stats, segpath::SerialFor{}, &side);
+  segpath::filtering::LightSide<float> side;
+  segpath::filtering::compute_densities(clustered.context, clustering, segpath::SerialFor{}, &side);
   std::size_t camera_chains = 0, light_chains = 0;
   for (std::size_t i = 0; i < pool.size(); ++i) {
-    if (!(pool.flags[i] & Filter::chain_segment)) continue;
-    ++((pool.flags[i] & Filter::camera_born) ? camera_chains : light_chains);
+    if (!(pool.flags[i] & segpath::filtering::chain_segment)) continue;
+    ++((pool.flags[i] & segpath::filtering::camera_born) ? camera_chains : light_chains);
   }
   CHECK(camera_chains > 20);
   CHECK(light_chains > 20);
@@ -377,12 +377,12 @@ TEST_CASE("BDPF on box 1: clusters with next-event ends on the black emitter fac
   segpath::FilteringOptions<float> o;
   o.next_event = true;
   const Filter filter(o);
-  const ClusteredPool clustered = clustered_pool(filter, scene, 0.06f);
-  const auto& [pool, clustering] = clustered;
+  ClusteredPool clustered = clustered_pool(filter, scene, 0.06f);
+  const auto& pool = clustered.context.pool;
+  const auto& clustering = clustered.clustering;
   std::vector<std::uint8_t> factorised;
   std::vector<renderer::Color> diffuse;
-  segpath::FilteringStats stats;
-  filter.conditioned_factorisation(scene, pool, clustering, factorised, diffuse, stats);
+  segpath::filtering::conditioned_factorisation(clustered.context, clustering, factorised, diffuse, segpath::SerialFor{});
   const auto& bsdf = scene.bsdf();
   std::size_t black_clusters = 0, black_factorised = 0;
   for (std::size_t c = 0; c < clustering.clusters().size(); ++c) {
@@ -401,9 +401,9 @@ TEST_CASE("BDPF on box 1: clusters with next-event ends on the black emitter fac
   // The image with and without factorisation (float sums in another order).
   segpath::Framebuffer<renderer::Color> a(48, 48), b(48, 48);
   segpath::DropCounters drops;
-  filter.render_iteration(scene, 1, 0.06f, a, drops);
+  filter.render_iteration_at_cell(scene, 0, 0.06f, a, drops);
   o.factorise = false;
-  Filter(o).render_iteration(scene, 1, 0.06f, b, drops);
+  Filter(o).render_iteration_at_cell(scene, 0, 0.06f, b, drops);
   double difference = 0, total = 0;
   for (std::uint32_t p = 0; p < 48 * 48; ++p) {
     difference += std::abs(double(a[p].r) - double(b[p].r));

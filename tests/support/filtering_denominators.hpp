@@ -18,29 +18,33 @@ namespace segpath::testing {
 /// start x_s of another (0 outside the support); a segment is never its own technique sample. Checks D(s) for every segment within 1e-12
 /// relative (double; float scenes: 1e-4, the sums run in another order) and returns
 /// {segments checked, segments with more than one technique sample}.
-template <class Filter, class Scn, class Kernel>
+/// `extra(s)` is sum_u N_u p_u(s) of the user's techniques (FilteringTechnique), written out
+/// by the caller; none by default.
+template <class Filter, class Scn, class Kernel, class Extra = double (*)(std::uint32_t)>
 std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, const Scn& scene, const typename Filter::Pool& pool,
-                                                       const Kernel& kernel) {
+                                                       const Kernel& kernel,
+                                                       const Extra& extra = [](std::uint32_t) { return 0.0; }) {
   using T = typename Scn::Scalar;
   const double tolerance = std::is_same_v<T, double> ? 1e-12 : 1e-4;
   const auto& bsdf = scene.bsdf();
   const double n_light = double(filter.light_path_count(scene));
-  const bool next_event = filter.options().next_event;
+  const bool next_event = filtering::technique_set(filter.options()).next_event;
   std::vector<std::uint32_t> targets;
   for (std::uint32_t u = 0; u < pool.size(); ++u)
-    if (!(pool.flags[u] & (Filter::camera_born | Filter::bridge_segment)) && pool.segments[u].x.kind == PointKind::surface)
+    if (!(pool.flags[u] & (filtering::camera_born | filtering::bridge_segment | filtering::extra_technique)) &&
+        pool.segments[u].x.kind == PointKind::surface)
       targets.push_back(u);
-  CHECK(pool.bridge_targets == (filter.options().bridges ? targets.size() : 0));
+  CHECK(pool.bridge_targets == (filtering::technique_set(filter.options()).bridges ? targets.size() : 0));
   std::size_t checked = 0, with_techniques = 0;
   for (std::uint32_t s = 0; s < pool.size(); ++s) {
     const auto& seg = pool.segments[s];
     const auto f = pool.flags[s];
-    const bool chain = (f & Filter::chain_segment) != 0;
+    const bool chain = (f & filtering::chain_segment) != 0;
     const bool on_surface = seg.x.kind == PointKind::surface;
-    const bool plain = !chain && !(f & Filter::delta_light) && on_surface;
+    const bool plain = !chain && !(f & filtering::delta_light) && on_surface;
     // What a light technique can draw: any segment from a surface point, through delta
     // reflections (a chain) but not a delta transmission, to a non-Dirac end.
-    const bool light_drawable = !(f & (Filter::transmission_chain | Filter::delta_light)) && on_surface;
+    const bool light_drawable = !(f & (filtering::transmission_chain | filtering::delta_light)) && on_surface;
     // Area x solid angle at y to the segment's measure: area at x, or for a chain area x solid
     // angle at x (etendue: cos_y dA_y dw_y = cos_x dA_x dw_x).
     const double to_segment_measure =
@@ -51,10 +55,10 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
     for (std::uint32_t t = 0; t < pool.size(); ++t) {
       if (t == s) continue;  // a segment is not its own technique sample
       // A camera technique sample: a continued segment whose end's support holds x_s.
-      if (pool.flags[t] & Filter::camera_technique) {
+      if (pool.flags[t] & filtering::camera_technique) {
         const double k = kernel(t, s);
         camera_points += k;
-        if (k > 0 && !(f & Filter::delta_light)) {
+        if (k > 0 && !(f & filtering::delta_light)) {
           const double measure = chain ? 1.0 : double(solid_angle_to_area(T(1), seg.x, seg.y));
           d += k * measure *
                double(bsdf.pdf(BsdfQuery<T>{pool.segments[t].y, -pool.last_direction[t], pool.first_direction[s], Transport::radiance}));
@@ -62,7 +66,7 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
         }
       }
       // A light technique sample: a continued light segment whose start lies in y_s's support.
-      if ((pool.flags[t] & Filter::light_technique) && light_drawable) {
+      if ((pool.flags[t] & filtering::light_technique) && light_drawable) {
         const double k = kernel(s, t);
         if (k > 0) {
           d += k * to_segment_measure *
@@ -72,7 +76,7 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
       }
     }
     // A bridge: any camera technique point to any of the M targets, uniform kernel draws at both ends.
-    if (filter.options().bridges && plain && seg.y.kind == PointKind::surface && !targets.empty()) {
+    if (filtering::technique_set(filter.options()).bridges && plain && seg.y.kind == PointKind::surface && !targets.empty()) {
       double bridge_light = 0;
       for (const std::uint32_t u : targets) bridge_light += u != s ? kernel(s, u) : 0.0;
       d += camera_points * bridge_light / double(targets.size());
@@ -84,7 +88,7 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
       d += camera_points * p;
       techniques += p > 0;
     }
-    if (f & Filter::sensor_segment) {
+    if (f & filtering::sensor_segment) {
       const auto p = scene.sensor().pdf(SensorQuery<T>{seg.x, pool.first_direction[s]});
       d += double(p.position) * double(p.direction) * (chain ? 1.0 : double(solid_angle_to_area(T(1), seg.x, seg.y)));
     }
@@ -92,6 +96,12 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
     if (on_surface && (!chain || (light_drawable && seg.y.kind == PointKind::surface))) {
       const auto e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{seg.y, -pool.last_direction[s]});
       d += n_light * double(e.position) * double(e.direction) * to_segment_measure;
+    }
+    // The user's techniques: straight segments only.
+    if (!chain && !(f & filtering::delta_light)) {
+      const double p = extra(s);
+      d += p;
+      techniques += p > 0;
     }
     CHECK(double(pool.density[s]) == Approx(d).epsilon(tolerance).margin(1e-300));
     ++checked;
@@ -114,16 +124,16 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
   const double n_light = double(filter.light_path_count(scene));
   std::vector<std::uint32_t> depth(pool.size(), 0);
   for (std::uint32_t i = 0; i < pool.size(); ++i) {
-    if (pool.flags[i] & Filter::camera_born) continue;
-    if (pool.flags[i] & Filter::light_start) depth[i] = 1;
-    else if (pool.parent[i] != Filter::no_parent) depth[i] = depth[pool.parent[i]] + 1;  // parents come first
+    if (pool.flags[i] & filtering::camera_born) continue;
+    if (pool.flags[i] & filtering::light_start) depth[i] = 1;
+    else if (pool.parent[i] != filtering::no_parent) depth[i] = depth[pool.parent[i]] + 1;  // parents come first
   }
   for (std::uint32_t s = 0; s < pool.size(); ++s) {
     const auto& seg = pool.segments[s];
     const auto f = pool.flags[s];
-    const bool chain = (f & Filter::chain_segment) != 0;
+    const bool chain = (f & filtering::chain_segment) != 0;
     const bool on_surface = seg.x.kind == PointKind::surface;
-    const bool light_drawable = !(f & (Filter::transmission_chain | Filter::delta_light)) && on_surface;
+    const bool light_drawable = !(f & (filtering::transmission_chain | filtering::delta_light)) && on_surface;
     const double to_segment_measure =
         chain ? double(std::abs(glm::dot(seg.x.normal, pool.first_direction[s]))) / double(std::abs(glm::dot(seg.y.normal, pool.last_direction[s])))
               : double(solid_angle_to_area(T(1), seg.y, seg.x));
@@ -139,7 +149,7 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
     }
     if (light_drawable)
       for (std::uint32_t u = 0; u < pool.size(); ++u) {
-        if (!(pool.flags[u] & Filter::light_technique) || u == s) continue;
+        if (!(pool.flags[u] & filtering::light_technique) || u == s) continue;
         const double q = kernel(s, u) * to_segment_measure *
                          double(bsdf.pdf(BsdfQuery<T>{pool.segments[u].x, -pool.last_direction[s], pool.first_direction[u], Transport::importance}));
         if (!(q > 0)) continue;
@@ -149,7 +159,7 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
       }
     CHECK(double(side.density[s]) == Approx(dl).epsilon(tolerance).margin(1e-300));
     CHECK(side.terms[s] == terms);
-    if (pool.flags[s] & Filter::light_technique) CHECK(double(side.technique_density[s]) == Approx(dlt).epsilon(tolerance).margin(1e-300));
+    if (pool.flags[s] & filtering::light_technique) CHECK(double(side.technique_density[s]) == Approx(dlt).epsilon(tolerance).margin(1e-300));
   }
 }
 

@@ -20,4 +20,15 @@ struct SerialFor {
   }
 };
 
+/// The chunked loop over [0, n): `blocks` contiguous ranges, one parallel_for task each, body(i)
+/// for every i (for flat per-element loops whose bodies are too small to be tasks of their own).
+inline constexpr std::size_t default_blocks = 64;
+
+template <class Body, ParallelFor P>
+void for_blocks(std::size_t n, const P& parallel_for, const Body& body, std::size_t blocks = default_blocks) {
+  parallel_for(blocks, [&](std::size_t b) {
+    for (std::size_t i = n * b / blocks, e = n * (b + 1) / blocks; i < e; ++i) body(i);
+  });
+}
+
 }  // namespace segpath

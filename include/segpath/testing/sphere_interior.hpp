@@ -6,6 +6,7 @@
 #include "segpath/concepts/scene.hpp"
 #include "segpath/core/warp.hpp"
 #include "segpath/materials/lambertian.hpp"
+#include "segpath/sensors/pinhole_camera.hpp"
 #include "segpath/sensors/probe.hpp"
 
 #include <cmath>
@@ -169,6 +170,31 @@ class SphereInterior {
 
   SphereInteriorParameters<T> p_;
   ProbeSensor<T> sensor_;
+};
+
+/// The sphere interior seen from its centre through a 90-degree pinhole of size x size pixels
+/// looking down -z: a closed Lambertian furnace for image-based methods (every pixel's
+/// expectation has the closed form of the point it sees), without periodic images, where a
+/// disk support is exact (a cap of chord radius r has area pi r^2).
+template <Real T>
+class PhotographedSphereInterior : public SphereInterior<T> {
+ public:
+  explicit PhotographedSphereInterior(std::uint32_t size, const SphereInteriorParameters<T>& p = {})
+      : SphereInterior<T>(p, {{0, 0, -1}}), camera_(camera(p, size)) {}
+  [[nodiscard]] const PinholeCamera<T>& sensor() const noexcept { return camera_; }
+
+ private:
+  static PinholeCamera<T> camera(const SphereInteriorParameters<T>& p, std::uint32_t size) {
+    PinholeCameraParameters<T> c;
+    c.position = p.center;
+    c.forward = {0, 0, -1};
+    c.right = {1, 0, 0};
+    c.up = {0, 1, 0};
+    c.width = c.height = size;
+    c.fov_x_degrees = c.fov_y_degrees = 90;
+    return PinholeCamera<T>(c);
+  }
+  PinholeCamera<T> camera_;
 };
 
 }  // namespace segpath::testing

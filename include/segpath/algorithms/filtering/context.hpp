@@ -1,0 +1,45 @@
+// The state of one filtering iteration that every stage reads or fills: the scene, the options,
+// the iteration's random stream, the pool and the counters (instead of long argument lists).
+#pragma once
+
+#include "segpath/algorithms/filtering/options.hpp"
+#include "segpath/algorithms/filtering/pool.hpp"
+#include "segpath/algorithms/filtering/technique_set.hpp"
+#include "segpath/concepts/scene.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+namespace segpath::filtering {
+
+/// N_L: light paths per iteration, beta x #pixels (none for MVF).
+template <LightSampledScene Scn>
+[[nodiscard]] std::uint64_t light_path_count(const Scn& scene, const TechniqueSet& techniques) noexcept {
+  return std::uint64_t(std::llround(techniques.light_paths_per_pixel * double(scene.sensor().pixel_count())));
+}
+
+template <LightSampledScene Scn>
+struct Context {
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  const Scn& scene;
+  const FilteringOptions<T>& options;
+  /// The random stream of the iteration (iteration index + 1: the streams of the images
+  /// recorded in tests/renderer/golden).
+  std::uint64_t stream = 1;
+  /// Which of the library's techniques draw (technique_set(options) unless a caller says otherwise).
+  TechniqueSet techniques = technique_set(options);
+  Pool<T, S> pool{};
+  FilteringStats stats{};
+  /// Per pooled segment, sum_u N_u p_u(s) over the user's techniques (empty without any).
+  std::vector<T> extra_density{};
+
+  /// N_L: light paths per iteration.
+  [[nodiscard]] std::uint64_t light_paths() const noexcept { return light_path_count(scene, techniques); }
+  /// Whether a light technique sample at light-path depth `depth` draws a segment that itself
+  /// tries a predecessor (trace_light_path's depth rule; D_lt of the path-conditioned weighting).
+  [[nodiscard]] bool deep(std::uint32_t depth) const noexcept { return std::size_t(depth) + 2 < options.max_length; }
+};
+
+}  // namespace segpath::filtering

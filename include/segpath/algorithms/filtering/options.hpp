@@ -1,0 +1,135 @@
+// The options and per-iteration counters of segment filtering (MVF, PhF, BDPF; SPEC 1.9):
+// which method, the kernel support and its schedule, the chain weighting, the optional
+// techniques (next-event, bridge segments) and the memory budget of the pair table.
+#pragma once
+
+#include "segpath/core/vec.hpp"
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace segpath {
+
+enum class FilteringMode : std::uint8_t {
+  mvf,   ///< camera paths only: multi-vertex path filtering
+  phf,   ///< light paths and sensor segments: photon filtering
+  bdpf,  ///< both: bidirectional path filtering (the paper's method)
+};
+
+[[nodiscard]] constexpr const char* to_string(FilteringMode m) noexcept {
+  switch (m) {
+    case FilteringMode::mvf: return "mvf";
+    case FilteringMode::phf: return "phf";
+    case FilteringMode::bdpf: return "bdpf";
+  }
+  return "?";
+}
+
+/// The kernel support of the junctions (SPEC 1.2): the paper's voxel clusters, or disks.
+enum class FilteringSupport : std::uint8_t {
+  voxel,  ///< runs of equal position-and-normal voxel keys; K = 1 / (mean plane area in the voxel)
+  disk,   ///< every start within r of an end (normals agreeing); K = 1 / (pi r^2), r = h / sqrt(pi)
+};
+
+[[nodiscard]] constexpr const char* to_string(FilteringSupport s) noexcept {
+  return s == FilteringSupport::voxel ? "voxel" : "disk";
+}
+
+/// How a pooled chain is weighted (BDPF; MVF and PhF have one side past the sensor segment,
+/// where both are the same weighting).
+enum class FilteringWeighting : std::uint8_t {
+  /// prod_i r_i, each segment's denominator conditioned on the sides its path neighbours were
+  /// born on (propagation/path_conditioned.hpp): unbiased up to the kernel's own bias.
+  path_conditioned,
+  paper,  ///< prod_i 1 / D(s_i) (N39): biased where camera and light technique samples share clusters
+};
+
+[[nodiscard]] constexpr const char* to_string(FilteringWeighting w) noexcept {
+  return w == FilteringWeighting::path_conditioned ? "path" : "paper";
+}
+
+template <Real T>
+struct FilteringOptions {
+  FilteringMode mode = FilteringMode::bdpf;
+  std::size_t max_length = 10;  ///< segments per path (>= 2): propagation runs max_length - 1 iterations
+  T light_path_ratio = T(1);  ///< beta: light paths per pixel per iteration (PhF, BDPF); 1: BDPF's best at equal time on box 1
+  T initial_cell_size = 0;       ///< voxel size of iteration 1; 0: 4x the average pixel footprint
+  T alpha = T(0.67);             ///< progressive shrinking of the voxel (PPM schedule)
+  bool factorise = true;         ///< use the O(n) sums in factorisable clusters (voxel support)
+  /// The junctions' support. The disk has the voxel's area (pi r^2 = h^2) but is centred on
+  /// each end, so supports overlap: no quantisation, no factorisation, memory per junction.
+  FilteringSupport support = FilteringSupport::voxel;
+  /// BDPF only: from every camera technique point y_t, one bridge segment to the start x_u of
+  /// a light segment chosen uniformly among the pool's M light-born surface starts, kept when
+  /// visible (SPEC 1.6 bridge, N34, with the approximate kernel draws of N33). Its technique
+  /// density, for every plain segment s, is K(x_s) n_cam(x_s) K(y_s) n_light(y_s) / M.
+  bool bridges = false;
+  /// MVF and BDPF (PhF has no camera technique points and ignores it): from every camera
+  /// technique point y_t, one next-event segment to a light
+  /// point drawn by the emitter's sample_towards(y_t), kept when visible (the light-end bridge
+  /// of SPEC 1.6, N34, approximate: it starts exactly at y_t). A camera-side technique like the
+  /// BSDF successor: its density, for every plain segment s, is K(x_s) n_cam(C(x_s)) p_L(y_s | x_s).
+  bool next_event = true;
+  /// Voxel support: f_r(s, s') of the pairs of non-factorised clusters (with the
+  /// path-conditioned weighting, each pair's whole junction: f_r, q_l and the weights r) is
+  /// computed once per iteration instead of once per propagation sweep, for as many clusters (in
+  /// order) as fit in this many bytes; the others are evaluated in every sweep. 0: no cache,
+  /// memory O(#segments).
+  std::size_t transfer_cache_bytes = std::size_t(1) << 30;
+  /// Shift the voxel grid randomly each iteration (quantisation becomes noise). Off, the grid
+  /// is aligned with the origin: on a periodic domain (canonical_position) whose period is a
+  /// multiple of the voxel size, voxels then tile the fundamental cell exactly.
+  bool jitter = true;
+  /// BDPF: the chain weighting. path_conditioned propagates four values per segment and
+  /// evaluates one light-technique density per junction (~2.4x the paper's propagation time
+  /// on box 1, 1.5x its iteration).
+  FilteringWeighting weighting = FilteringWeighting::path_conditioned;
+  std::uint64_t seed = 1;
+};
+
+/// Counters of one iteration (pool size, clusters, how many were factorised).
+struct FilteringStats {
+  std::uint64_t segments = 0, camera_segments = 0, light_segments = 0, bridge_segments = 0, clusters = 0;
+  std::uint64_t next_event_segments = 0;  ///< among the camera segments
+  std::uint64_t extra_segments = 0;  ///< drawn by the user's techniques (FilteringTechnique)
+  std::uint64_t junctions = 0;  ///< disk support: (end, start) pairs within r
+  std::uint64_t factorised_camera_clusters = 0, factorised_light_clusters = 0, factorised_transfer_clusters = 0;
+  std::uint64_t pair_evaluations = 0;  ///< technique-density and transfer evaluations
+  double cell_size = 0;
+  std::size_t bytes_per_segment = 0;    ///< O(#segments) memory, without the transfer cache
+  std::size_t transfer_cache_bytes = 0;  ///< FilteringOptions::transfer_cache_bytes at most
+  /// Wall time of the stages of render_iteration: paths (pool), support (clusters or disk
+  /// junctions), densities (MMIS denominators, light side), propagation (with its pair
+  /// evaluations), gather (pixels).
+  double paths_seconds = 0, support_seconds = 0, densities_seconds = 0, propagation_seconds = 0, gather_seconds = 0;
+};
+
+/// Throws std::invalid_argument naming the first option out of range.
+template <Real T>
+void validate(const FilteringOptions<T>& options) {
+  if (options.max_length < 2)
+    throw std::invalid_argument("segpath::SegmentFiltering: max_length must be >= 2 (k >= 1 propagation iterations), got " +
+                                std::to_string(options.max_length));
+  if (options.mode != FilteringMode::mvf && !(options.light_path_ratio > T(0) && std::isfinite(options.light_path_ratio)))
+    throw std::invalid_argument("segpath::SegmentFiltering: beta (light paths per pixel) must be > 0, got " +
+                                std::to_string(options.light_path_ratio));
+  if (!(options.initial_cell_size >= T(0)) || !std::isfinite(options.initial_cell_size))
+    throw std::invalid_argument("segpath::SegmentFiltering: voxel size must be > 0 (or 0 for automatic), got " +
+                                std::to_string(options.initial_cell_size));
+  if (options.bridges && options.mode != FilteringMode::bdpf)
+    throw std::invalid_argument(std::string("segpath::SegmentFiltering: bridge segments join camera and light paths, "
+                                            "so they need mode bdpf, got ") + to_string(options.mode));
+  if (!(options.alpha > T(0) && options.alpha < T(1)))
+    throw std::invalid_argument("segpath::SegmentFiltering: alpha must lie in (0, 1), got " + std::to_string(options.alpha));
+}
+
+/// Whether chains are weighted path-conditioned (only BDPF has both sides).
+template <Real T>
+[[nodiscard]] constexpr bool path_conditioned(const FilteringOptions<T>& options) noexcept {
+  return options.mode == FilteringMode::bdpf && options.weighting == FilteringWeighting::path_conditioned;
+}
+
+}  // namespace segpath

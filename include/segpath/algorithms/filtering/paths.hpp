@@ -1,0 +1,279 @@
+// Stage 1 of a filtering iteration: the techniques draw the pool. Camera paths (the sensor
+// segment, then approximate successors, N33, and next-event segments from each camera technique
+// point), light paths (the light-start segment, N30, then approximate predecessors), bridge
+// segments, and the draws of the user's own techniques (FilteringTechnique). A delta bounce does
+// not end a segment: the path folds it into a chain (area at x x solid angle at x).
+#pragma once
+
+#include "segpath/algorithms/filtering/context.hpp"
+#include "segpath/core/geometry.hpp"
+#include "segpath/core/parallel.hpp"
+#include "segpath/core/rng.hpp"
+#include "segpath/materials/scattering.hpp"
+#include "segpath/samplers/light_start.hpp"
+#include "segpath/samplers/sensor_start.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <iterator>
+#include <optional>
+#include <vector>
+
+namespace segpath::filtering {
+
+/// Path generators draw in this many chunks (the pool is the same whatever the thread count).
+inline constexpr std::size_t chunk_count = 64;
+
+/// The next-event segment of the camera technique point y of `out[source]`: a light point
+/// from sample_towards(y), kept when visible. A failed draw is still a technique sample (the
+/// density counts every camera technique point).
+template <LightSampledScene Scn, class R>
+void add_next_event(const Scn& scene, std::uint32_t source, R& rng,
+                    std::vector<Record<typename Scn::Scalar, typename Scn::Spectrum>>& out) {
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  const Vec2<T> u = uniform2<T>(rng);
+  const T u_select = rng.template uniform<T>();
+  const SurfacePoint<T> x = out[source].segment.y;
+  const auto e = scene.emitter().sample_towards(EmitterTowardsQuery<T>{x, u, u_select});
+  if (!e || !(e->pdf > T(0)) || !std::isfinite(e->pdf)) return;
+  Record<T, S> r;
+  r.segment = Segment<T>{x, e->point};
+  if (r.segment.y.kind != PointKind::direction && !(r.segment.length_squared() > T(0))) return;
+  r.geometry = geometry_term(r.segment);
+  if (!(r.geometry > T(0)) || !std::isfinite(r.geometry)) return;
+  if (!scene.visible(VisibilityQuery<T>{r.segment.x, r.segment.y})) return;
+  r.first_direction = r.last_direction = r.segment.direction();
+  r.chain = S(T(1));
+  r.flags = camera_born | (e->delta ? delta_light : 0);
+  r.parent = source;
+  r.next_event = true;
+  out.push_back(r);
+}
+
+/// One camera path: the sensor segment, then approximate successors (N33) from each
+/// non-delta end; delta bounces extend the current segment into a chain. MVF and BDPF go
+/// to max_length segments (delta bounces count), PhF keeps only the sensor segment.
+template <LightSampledScene Scn>
+void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
+                       std::vector<Record<typename Scn::Scalar, typename Scn::Spectrum>>& out) {
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  const Scn& scene = ctx.scene;
+  Pcg32 rng = Pcg32::for_sample(ctx.options.seed, pixel, 2 * ctx.stream);
+  const auto first = SensorStartSampler<Scn>{}.sample(scene, {pixel}, rng);
+  if (!first) return;
+  const auto ray = scene.sensor().pdf(SensorQuery<T>{first->segment.x, first->direction});
+  const auto response = scene.sensor().importance(SensorQuery<T>{first->segment.x, first->direction});
+  if (!response || !(ray.position * ray.direction > T(0))) return;
+  const std::size_t max_pieces = ctx.options.max_length;
+  Record<T, S> r;
+  r.segment.x = first->segment.x;
+  r.first_direction = first->direction;
+  r.flags = sensor_segment | camera_born;
+  r.pixel = pixel;
+  r.sensor_weight = response->importance;
+  SurfacePoint<T> y = first->segment.y;
+  Vec3<T> direction = first->direction;
+  T distance = std::sqrt(first->segment.length_squared());
+  S chain(T(1));
+  std::size_t pieces = 1;
+  const auto& bsdf = scene.bsdf();
+  for (;;) {
+    // Follow delta bounces: the segment continues through them.
+    std::optional<BsdfSample<S>> next;
+    if (y.kind == PointKind::surface && pieces < max_pieces) {
+      next = bsdf.sample(BsdfSampleQuery<T>{y, -direction, uniform2<T>(rng), rng.template uniform<T>(), Transport::radiance});
+      if (next && next->delta && next->pdf > T(0)) {
+        chain = chain * (next->value * (std::abs(glm::dot(next->direction, y.normal)) / next->pdf));
+        if (is_transmission(y, -direction, next->direction)) r.flags |= transmission_chain;
+        const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{y.position, next->direction}});
+        direction = next->direction;
+        ++pieces;
+        r.flags |= chain_segment;
+        if (hit) {
+          y = hit->point;
+        } else {
+          y = SurfacePoint<T>::at_infinity(direction);
+        }
+        continue;
+      }
+    }
+    // Close the segment at y.
+    r.segment.y = y;
+    r.last_direction = direction;
+    r.chain = chain;
+    r.geometry = (r.flags & chain_segment) ? endpoint_cosine(r.segment.x, r.first_direction)
+                                           : geometry_term(r.segment, direction, distance);
+    // Every attempted successor draw is a technique sample, including draws that failed:
+    // SMIS/MMIS denominators sum over all technique samples (N11, N39); leaving the failed
+    // ones out would underestimate D and bias the image upwards (glossy lobes at grazing
+    // angles fail often).
+    const bool attempted = ctx.techniques.camera_successors && pieces < max_pieces && y.kind == PointKind::surface;
+    if (attempted) r.flags |= camera_technique;
+    const bool continues = attempted && next && !next->delta && next->pdf > T(0);
+    const auto index = std::uint32_t(out.size());
+    out.push_back(r);
+    if (attempted && ctx.techniques.next_event) add_next_event(scene, index, rng, out);
+    if (!continues) return;
+    // The approximate successor (N33): starts exactly at y, direction from the BSDF at y.
+    const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{y.position, next->direction}});
+    Record<T, S> successor;
+    successor.segment.x = y;
+    successor.first_direction = next->direction;
+    successor.flags = camera_born;
+    successor.parent = index;
+    r = successor;
+    direction = next->direction;
+    chain = S(T(1));
+    ++pieces;
+    if (hit) {
+      y = hit->point;
+      distance = hit->distance;
+    } else {
+      y = SurfacePoint<T>::at_infinity(direction);
+      distance = T(1);
+    }
+  }
+}
+
+/// One light path: the light-start segment (N30), then approximate light-side
+/// predecessors (N33) from each non-delta sensor end; it ends at a delta surface.
+template <LightSampledScene Scn>
+void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
+                      std::vector<Record<typename Scn::Scalar, typename Scn::Spectrum>>& out) {
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  const Scn& scene = ctx.scene;
+  Pcg32 rng = Pcg32::for_sample(ctx.options.seed, index, 2 * ctx.stream + 1);
+  const auto first = LightStartSampler<Scn>{}.sample(scene, {}, rng);
+  if (!first) return;
+  Record<T, S> r;
+  r.segment = first->segment;
+  r.first_direction = r.last_direction = first->direction;
+  r.chain = S(T(1));
+  r.flags = light_start | (first->delta ? delta_light : 0);
+  // G in the segment's product measure; for a distant light the end at infinity drops 1/d^2.
+  r.geometry = geometry_term(first->segment);
+  const auto& bsdf = scene.bsdf();
+  // Through delta reflections the segment continues into a light-born chain, measured like
+  // the camera's (area x solid angle at x); its density needs the light end's area measure
+  // (light_measure), so only area lights continue, and a delta transmission (whose radiance
+  // and importance throughputs differ) ends the path.
+  const bool chains = !first->delta && r.segment.y.kind == PointKind::surface;
+  for (std::size_t pieces = 1;; ++pieces) {
+    const SurfacePoint<T>& x = r.segment.x;
+    std::optional<BsdfSample<S>> prev;
+    const bool attempted = x.kind == PointKind::surface && pieces + 1 < ctx.options.max_length;
+    if (attempted)
+      prev = bsdf.sample(BsdfSampleQuery<T>{x, r.first_direction, uniform2<T>(rng), rng.template uniform<T>(), Transport::importance});
+    if (chains && prev && prev->delta && prev->pdf > T(0) && !is_transmission(x, r.first_direction, prev->direction)) {
+      const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{x.position, prev->direction}});
+      if (!hit) return;  // the chain leaves the scene: no sensor segment can join it
+      r.chain = r.chain * (prev->value * (std::abs(glm::dot(prev->direction, x.normal)) / prev->pdf));
+      r.segment.x = hit->point;
+      r.first_direction = -prev->direction;
+      r.flags |= chain_segment;
+      r.geometry = endpoint_cosine(r.segment.x, r.first_direction);
+      continue;
+    }
+    // A technique sample whether or not its draw succeeded (see trace_camera_path); a
+    // delta surface that does not continue the chain ends the light path.
+    const bool tries_predecessor = attempted && ctx.techniques.light_predecessors && !(prev && prev->delta);
+    if (tries_predecessor) r.flags |= light_technique;
+    const bool continues = tries_predecessor && prev && prev->pdf > T(0);
+    const auto index = std::uint32_t(out.size());
+    out.push_back(r);
+    if (!continues) return;
+    // The approximate predecessor: y' = x exactly, x' the first hit towards the sensor side.
+    const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{x.position, prev->direction}});
+    if (!hit) return;
+    Record<T, S> predecessor;
+    predecessor.segment = Segment<T>{hit->point, x};
+    predecessor.first_direction = predecessor.last_direction = -prev->direction;
+    predecessor.chain = S(T(1));
+    predecessor.geometry = geometry_term(predecessor.segment, -prev->direction, hit->distance);
+    predecessor.parent = index;
+    r = predecessor;
+  }
+}
+
+/// Bridge segments (BDPF option): every camera technique point y_t draws one light-born
+/// start x_u uniformly among the M targets and, when the two see each other, adds the
+/// segment y_t -> x_u. Failed draws (invisible, degenerate) still count as technique samples
+/// in the density (compute_densities), as for the other samplers.
+template <LightSampledScene Scn, ParallelFor P>
+void add_bridges(Context<Scn>& ctx, const P& parallel_for) {
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  const Scn& scene = ctx.scene;
+  auto& pool = ctx.pool;
+  std::vector<std::uint32_t> targets, sources;
+  for (std::uint32_t i = 0; i < pool.size(); ++i) {
+    if (is_bridge_target(pool, i)) targets.push_back(i);
+    if (pool.flags[i] & camera_technique) sources.push_back(i);
+  }
+  pool.bridge_targets = targets.size();
+  if (targets.empty()) return;
+  std::vector<std::vector<Record<T, S>>> bridges(chunk_count);
+  parallel_for(chunk_count, [&](std::size_t c) {
+    const std::size_t j0 = sources.size() * c / chunk_count, j1 = sources.size() * (c + 1) / chunk_count;
+    for (std::size_t j = j0; j < j1; ++j) {
+      const std::uint32_t t = sources[j];
+      Pcg32 rng = Pcg32::for_sample(ctx.options.seed ^ 0x627269646765ULL /* "bridge" */, t, ctx.stream);
+      const auto pick = std::min<std::size_t>(targets.size() - 1, std::size_t(rng.template uniform<double>() * double(targets.size())));
+      Record<T, S> r;
+      r.segment = Segment<T>{pool.segments[t].y, pool.segments[targets[pick]].x};
+      const Vec3<T> d = r.segment.y.position - r.segment.x.position;
+      const T distance = std::sqrt(glm::dot(d, d));
+      if (!(distance > T(0)) || !std::isfinite(distance)) continue;
+      if (!scene.visible(VisibilityQuery<T>{r.segment.x, r.segment.y})) continue;
+      r.first_direction = r.last_direction = d / distance;
+      r.chain = S(T(1));
+      r.geometry = geometry_term(r.segment, r.first_direction, distance);
+      r.flags = bridge_segment;
+      if (!(r.geometry > T(0))) continue;
+      bridges[c].push_back(r);
+    }
+  });
+  append(pool, bridges, parallel_for);
+}
+
+/// Step 1: the camera and light paths of an iteration, pooled (camera paths in pixel
+/// order, then light paths in index order), then the bridges; finish_pool completes the pool
+/// once every technique has drawn.
+template <LightSampledScene Scn, ParallelFor P>
+void draw_paths(Context<Scn>& ctx, const P& parallel_for) {
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  const Scn& scene = ctx.scene;
+  auto& pool = ctx.pool;
+  const std::uint32_t pixels = scene.sensor().pixel_count();
+  const std::uint64_t light_paths = ctx.light_paths();
+  std::vector<std::vector<Record<T, S>>> camera(chunk_count), light(chunk_count);
+  parallel_for(chunk_count, [&](std::size_t c) {
+    const std::uint64_t p0 = pixels * c / chunk_count, p1 = pixels * (c + 1) / chunk_count;
+    for (std::uint64_t p = p0; p < p1; ++p) trace_camera_path(ctx, std::uint32_t(p), camera[c]);
+    const std::uint64_t l0 = light_paths * c / chunk_count, l1 = light_paths * (c + 1) / chunk_count;
+    for (std::uint64_t l = l0; l < l1; ++l) trace_light_path(ctx, l, light[c]);
+  });
+  camera.insert(camera.end(), std::make_move_iterator(light.begin()), std::make_move_iterator(light.end()));
+  append(pool, camera, parallel_for);
+  if (ctx.techniques.bridges) add_bridges(ctx, parallel_for);
+}
+
+/// L_e of every pooled segment (through its chain), and room for its denominator.
+template <LightSampledScene Scn, ParallelFor P>
+void finish_pool(Context<Scn>& ctx, const P& parallel_for) {
+  using T = typename Scn::Scalar;
+  auto& pool = ctx.pool;
+  const auto& emitter = ctx.scene.emitter();
+  pool.emitted.resize(pool.size());
+  for_blocks(pool.size(), parallel_for, [&](std::size_t i) {
+    pool.emitted[i] = emitter.radiance(EmissionQuery<T>{pool.segments[i].y, -pool.last_direction[i]}) * pool.chain[i];
+  });
+  pool.density.assign(pool.size(), T(0));
+}
+
+}  // namespace segpath::filtering

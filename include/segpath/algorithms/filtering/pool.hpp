@@ -1,0 +1,125 @@
+// The segment pool of one filtering iteration (SPEC 1.9): every segment the techniques drew,
+// structure of arrays, with the flags that say which technique drew it and which techniques
+// its ends offer (a technique sample is a pooled segment whose end was continued).
+#pragma once
+
+#include "segpath/core/parallel.hpp"
+#include "segpath/core/segment.hpp"
+#include "segpath/core/spectrum.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace segpath::filtering {
+
+/// What a pooled segment is (Pool::flags).
+enum PoolFlag : std::uint16_t {
+  sensor_segment = 1,       ///< s_1 of a camera path
+  camera_born = 2,          ///< drawn by the camera side
+  chain_segment = 4,        ///< contains delta vertices: (area x, solid angle x) measure
+  camera_technique = 8,     ///< a camera successor draw was attempted from it
+  light_technique = 16,     ///< a light predecessor draw was attempted from it
+  light_start = 32,         ///< drawn by the light-start sampler
+  delta_light = 64,         ///< its light end is a Dirac (point light, sun)
+  bridge_segment = 128,     ///< drawn by the bridge technique
+  transmission_chain = 256, ///< a chain through a delta transmission (camera side only)
+  extra_technique = 512,    ///< drawn by a technique of the user's list (FilteringTechnique)
+};
+
+inline constexpr std::uint32_t no_parent = 0xffffffffu;
+
+/// One iteration's segments, structure of arrays (memory O(#segments)).
+template <Real T, Spectrum S>
+struct Pool {
+  std::vector<Segment<T>> segments;
+  std::vector<Vec3<T>> first_direction, last_direction;  ///< unit, at x and at y (equal unless a chain)
+  std::vector<S> chain, emitted;                         ///< delta-vertex throughput; chain * L_e(y)
+  std::vector<T> geometry, density, sensor_weight;       ///< G, D and W for sensor segments
+  std::vector<std::uint32_t> pixel;
+  /// The segment whose technique sample drew this one: a camera successor's or next-event
+  /// segment's predecessor on its camera path, a light predecessor's successor on its light
+  /// path; no_parent for the unconditional draws (sensor, light start, extra techniques) and bridges.
+  std::vector<std::uint32_t> parent;
+  std::vector<std::uint16_t> flags;
+  std::uint64_t bridge_targets = 0;       ///< M: light-born segments with a surface x (bridges on)
+  std::uint64_t next_event_segments = 0;  ///< camera-born segments drawn by light sampling
+  [[nodiscard]] std::size_t size() const noexcept { return segments.size(); }
+  [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
+    return sizeof(Segment<T>) + 2 * sizeof(Vec3<T>) + 2 * sizeof(S) + 3 * sizeof(T) + 2 * sizeof(std::uint32_t) +
+           sizeof(std::uint16_t);
+  }
+};
+
+/// A segment as a technique produces it, before pooling.
+template <Real T, Spectrum S>
+struct Record {
+  Segment<T> segment;
+  Vec3<T> first_direction, last_direction;
+  S chain;
+  T geometry = 0, sensor_weight = 0;
+  std::uint32_t pixel = 0;
+  std::uint32_t parent = no_parent;  ///< index in the same generator's record list
+  std::uint16_t flags = 0;
+  bool next_event = false;
+};
+
+/// Appends the generators' records, chunk after chunk (in parallel over chunks); a record's
+/// parent indexes its own chunk, the pool's the pool.
+template <Real T, Spectrum S, ParallelFor P>
+void append(Pool<T, S>& pool, const std::vector<std::vector<Record<T, S>>>& chunks, const P& parallel_for) {
+  std::vector<std::size_t> base(chunks.size() + 1, pool.size());
+  for (std::size_t c = 0; c < chunks.size(); ++c) base[c + 1] = base[c] + chunks[c].size();
+  const std::size_t total = base.back();
+  pool.segments.resize(total), pool.first_direction.resize(total), pool.last_direction.resize(total);
+  pool.chain.resize(total), pool.geometry.resize(total), pool.sensor_weight.resize(total), pool.pixel.resize(total);
+  pool.parent.resize(total), pool.flags.resize(total);
+  std::vector<std::uint64_t> next_event(chunks.size(), 0);
+  parallel_for(chunks.size(), [&](std::size_t c) {
+    std::size_t i = base[c];
+    for (const Record<T, S>& r : chunks[c]) {
+      pool.segments[i] = r.segment;
+      pool.first_direction[i] = r.first_direction;
+      pool.last_direction[i] = r.last_direction;
+      pool.chain[i] = r.chain;
+      pool.geometry[i] = r.geometry;
+      pool.sensor_weight[i] = r.sensor_weight;
+      pool.pixel[i] = r.pixel;
+      pool.parent[i] = r.parent == no_parent ? no_parent : std::uint32_t(base[c] + r.parent);
+      pool.flags[i] = r.flags;
+      next_event[c] += r.next_event ? 1 : 0;
+      ++i;
+    }
+  });
+  for (const auto n : next_event) pool.next_event_segments += n;
+}
+
+// Which segments each conditional technique can produce: a camera successor any segment but
+// one with a Dirac light end (N31); a light predecessor ends its ray at a surface hit, so never
+// a segment whose x is off the manifold (a sensor segment), a chain through a delta
+// transmission, or a Dirac light end; a bridge any straight segment between two surface points.
+template <class Pl>
+[[nodiscard]] bool camera_reachable(const Pl& pool, std::size_t s) noexcept {
+  return !(pool.flags[s] & delta_light);
+}
+template <class Pl>
+[[nodiscard]] bool light_reachable(const Pl& pool, std::size_t s) noexcept {
+  return !(pool.flags[s] & (transmission_chain | delta_light)) && pool.segments[s].x.kind == PointKind::surface;
+}
+template <class Pl>
+[[nodiscard]] bool bridge_reachable(const Pl& pool, std::size_t s) noexcept {
+  return !(pool.flags[s] & (chain_segment | delta_light)) && pool.segments[s].x.kind == PointKind::surface &&
+         pool.segments[s].y.kind == PointKind::surface;
+}
+/// The targets of bridge segments: light-born segments whose x is a surface point.
+template <class Pl>
+[[nodiscard]] bool is_bridge_target(const Pl& pool, std::size_t i) noexcept {
+  return !(pool.flags[i] & (camera_born | bridge_segment | extra_technique)) && pool.segments[i].x.kind == PointKind::surface;
+}
+/// Whether a delta scattering at p from `fixed` to `sampled` crosses the surface.
+template <Real T>
+[[nodiscard]] bool is_transmission(const SurfacePoint<T>& p, const Vec3<T>& fixed, const Vec3<T>& sampled) noexcept {
+  return glm::dot(fixed, p.normal) * glm::dot(sampled, p.normal) < T(0);
+}
+
+}  // namespace segpath::filtering

@@ -1,0 +1,170 @@
+// Stage 5 of a filtering iteration: propagation (SPEC 1.8, Algorithm 1) over the pool's
+// support with the chosen weighting: the paper's prod 1 / D (propagation/propagate.hpp) or the
+// path-conditioned one (propagation/path_conditioned.hpp), with the factorised O(n + m) sums
+// where the clusters allow. Returns L (weighted L for the path-conditioned weighting) and the
+// G w (G) per segment that the gather multiplies by.
+#pragma once
+
+#include "segpath/algorithms/filtering/context.hpp"
+#include "segpath/algorithms/filtering/factorisation.hpp"
+#include "segpath/algorithms/filtering/light_side.hpp"
+#include "segpath/algorithms/filtering/transfer.hpp"
+#include "segpath/propagation/clustering.hpp"
+#include "segpath/propagation/disk_junctions.hpp"
+#include "segpath/propagation/path_conditioned.hpp"
+#include "segpath/propagation/propagate.hpp"
+
+#include <cstdint>
+#include <type_traits>
+#include <vector>
+
+namespace segpath::filtering {
+
+/// The path-conditioned propagation's memory per segment, besides the junction table
+/// (FilteringOptions::transfer_cache_bytes).
+template <Spectrum S>
+inline constexpr std::size_t conditioned_bytes_per_segment =
+    4 * sizeof(ConditionedValues<S>) + 8 * sizeof(spectrum_scalar_t<S>) + 4 * sizeof(std::uint32_t) + 3 +
+    3 * sizeof(detail::ConditionedJunction<S>);
+
+/// G(s) w(s) = G(s) / D(s) per segment (0 where no technique could draw it).
+template <Real T, Spectrum S>
+void weighted_geometry_of(const Pool<T, S>& pool, std::vector<T>& weighted_geometry) {
+  weighted_geometry.resize(pool.size());
+  for (std::size_t i = 0; i < pool.size(); ++i)
+    weighted_geometry[i] = pool.density[i] > T(0) ? pool.geometry[i] / pool.density[i] : T(0);
+}
+
+/// Step 5: `iterations` Jacobi iterations of propagation over the clustered pool, using the
+/// factorised O(n + m) sums where the options allow and the cluster qualifies. Returns L
+/// and G w per segment.
+template <LightSampledScene Scn, ParallelFor P>
+void propagate_pool(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>& clustering, int iterations,
+                    std::vector<typename Scn::Spectrum>& radiance, std::vector<typename Scn::Scalar>& weighted_geometry,
+                    const P& parallel_for) {
+  using S = typename Scn::Spectrum;
+  const Scn& scene = ctx.scene;
+  const auto& pool = ctx.pool;
+  auto& stats = ctx.stats;
+  weighted_geometry_of(pool, weighted_geometry);
+  std::vector<std::uint8_t> factorised;
+  std::vector<S> diffuse;
+  if (ctx.options.factorise) transfer_factorisation(ctx, clustering, factorised, diffuse, parallel_for);
+  Transfer<Scn> transfer;
+  transfer.build(pool, clustering, factorised, parallel_for);
+  const TransferLink<Scn> link{scene.bsdf(), transfer};
+  PairCache<S> cache;
+  cache.build([&](std::uint32_t i, std::uint32_t j) { return link(0, 0, i, j); }, clustering, factorised,
+              ctx.options.transfer_cache_bytes, parallel_for);
+  stats.transfer_cache_bytes = cache.value.size() * sizeof(S);
+  const CachedTransferLink<Scn> cached{link, cache};
+  const PropagationInputs<S, CachedTransferLink<Scn>> inputs{clustering, pool.emitted, weighted_geometry, cached, diffuse, factorised};
+  PropagationWorkspace<S> workspace;
+  propagate(inputs, iterations, radiance, workspace, parallel_for);
+}
+
+/// Step 5 over the disk support (no factorisation: every end has its own disk).
+template <LightSampledScene Scn, ParallelFor P>
+void propagate_pool(Context<Scn>& ctx, const DiskJunctions<typename Scn::Scalar>& junctions, int iterations,
+                    std::vector<typename Scn::Spectrum>& radiance, std::vector<typename Scn::Scalar>& weighted_geometry,
+                    const P& parallel_for) {
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  const Scn& scene = ctx.scene;
+  const auto& pool = ctx.pool;
+  weighted_geometry_of(pool, weighted_geometry);
+  const auto& bsdf = scene.bsdf();
+  auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
+    const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});
+    return f * pool.chain[s];
+  };
+  const DiskPropagationInputs<S, decltype(link)> inputs{junctions, pool.emitted, weighted_geometry, link};
+  std::vector<S> scratch;
+  propagate(inputs, iterations, radiance, scratch, parallel_for);
+}
+
+/// Step 5 with the path-conditioned weighting; returns the weighted L per segment and G
+/// (the weights are inside: a sensor segment's pixel value is W G L).
+template <LightSampledScene Scn, class Support, ParallelFor P>
+void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const LightSide<typename Scn::Scalar>& side,
+                                int iterations, std::vector<typename Scn::Spectrum>& radiance,
+                                std::vector<typename Scn::Scalar>& geometry, const P& parallel_for) {
+  using T = typename Scn::Scalar;
+  using S = typename Scn::Spectrum;
+  const Scn& scene = ctx.scene;
+  const auto& pool = ctx.pool;
+  auto& stats = ctx.stats;
+  const auto& bsdf = scene.bsdf();
+  // The s-only part of q_l(s | s'), per segment (as light_side computes it).
+  std::vector<T> scale(pool.size(), T(0));
+  parallel_for(pool.size(), [&](std::size_t i) {
+    const auto s = std::uint32_t(i);
+    if constexpr (std::is_same_v<Support, DiskJunctions<T>>) {
+      scale[s] = light_pair_scale(pool, support.kernel(), s);
+    } else {
+      const std::uint32_t c = support.cluster_of_y(s);
+      if (c != no_cluster) scale[s] = light_pair_scale(pool, support.clusters()[c].kernel, s);
+    }
+  });
+  auto light_pair = [&](std::uint32_t s, std::uint32_t sp) -> T { return light_pair_density(bsdf, pool, scale[s], s, sp); };
+  if constexpr (std::is_same_v<Support, DiskJunctions<T>>) {
+    auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
+      return bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance}) *
+             pool.chain[s];
+    };
+    const ConditionedInputs<S, decltype(link), decltype(light_pair)> inputs{
+        pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags, link, light_pair};
+    propagate_conditioned(support, inputs, iterations, radiance, parallel_for);
+      } else {
+    std::vector<std::uint8_t> factorised;
+    std::vector<S> diffuse;
+    if (ctx.options.factorise) conditioned_factorisation(ctx, support, factorised, diffuse, parallel_for);
+    // The general clusters read slot-ordered copies (Transfer, and the starts and s-only
+    // factors of q_l): f_r and q_l by slot, as propagate_pool does.
+    Transfer<Scn> transfer;
+    transfer.build(pool, support, factorised, parallel_for);
+    std::vector<SurfacePoint<T>> starting_x(transfer.starting_direction.size());
+    std::vector<T> ending_scale(transfer.ending.size(), T(0));
+    const auto clusters = support.clusters();
+    parallel_for(clusters.size(), [&](std::size_t c) {
+      if (!factorised.empty() && factorised[c]) return;
+      const Cluster<T>& cl = clusters[c];
+      for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j)
+        starting_x[transfer.starting_record.empty() ? j : transfer.starting_record[j]] =
+            pool.segments[support.starting_segments()[j]].x;
+      const std::uint32_t first = cl.ending_slot(cl.middle);
+      for (std::uint32_t i = first; i < first + cl.ending_count(); ++i)
+        ending_scale[transfer.ending_record.empty() ? i : transfer.ending_record[i]] = scale[support.ending_segments()[i]];
+    });
+    // q_l(s | s') of a general cluster's pair, by slot (propagate_conditioned calls it for
+    // potential light techniques s' only, which excludes chains through a delta transmission):
+    // light_pair_density from the copies, the same product, the same number.
+    struct SlotLightPair {
+      decltype(light_pair) by_id;
+      decltype(std::declval<const Scn&>().bsdf()) bsdf;
+      const Transfer<Scn>& transfer;
+      const std::vector<SurfacePoint<T>>& starting_x;
+      const std::vector<T>& ending_scale;
+      T operator()(std::uint32_t s, std::uint32_t sp) const noexcept { return by_id(s, sp); }
+      T operator()(std::uint32_t, std::uint32_t, std::uint32_t i, std::uint32_t j) const noexcept {
+        const std::uint32_t ir = transfer.ending_record.empty() ? i : transfer.ending_record[i];
+        const std::uint32_t jr = transfer.starting_record.empty() ? j : transfer.starting_record[j];
+        const T scale_s = ending_scale[ir];
+        if (!(scale_s > T(0)) || starting_x[jr].kind != PointKind::surface) return T(0);
+        const T q = scale_s * bsdf.pdf(BsdfQuery<T>{starting_x[jr], transfer.ending[ir].outgoing, transfer.starting_direction[jr],
+                                                    Transport::importance});
+        return std::isfinite(q) && q > T(0) ? q : T(0);
+      }
+    };
+    const ConditionedInputs<S, TransferLink<Scn>, SlotLightPair> slot_inputs{
+        pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags,
+        TransferLink<Scn>{scene.bsdf(), transfer}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale}};
+    // The junctions of the pairs that fit the cache budget are built once per pool.
+    stats.transfer_cache_bytes =
+        propagate_conditioned(support, slot_inputs, iterations, radiance, parallel_for, std::span<const std::uint8_t>(factorised),
+                              std::span<const S>(diffuse), ctx.options.transfer_cache_bytes);
+  }
+  geometry.assign(pool.geometry.begin(), pool.geometry.end());
+}
+
+}  // namespace segpath::filtering

@@ -1,0 +1,80 @@
+// Stage 3 of a filtering iteration: the junction support of the pool (SPEC 1.2), voxel clusters
+// (the paper's) or disks of the same area, and the kernel schedule that shrinks it per iteration
+// (the PPM schedule of kernels/progressive_radius.hpp).
+#pragma once
+
+#include "segpath/algorithms/filtering/context.hpp"
+#include "segpath/kernels/progressive_radius.hpp"
+#include "segpath/propagation/clustering.hpp"
+#include "segpath/propagation/disk_junctions.hpp"
+#include "segpath/propagation/voxel_grid.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <span>
+
+namespace segpath::filtering {
+
+/// Where an end is keyed or measured: the scene's canonical position, or the position itself.
+template <LightSampledScene Scn>
+[[nodiscard]] auto canonical_map(const Scn& scene) noexcept {
+  using T = typename Scn::Scalar;
+  return [&scene](const SurfacePoint<T>& p) -> Vec3<T> {
+    if constexpr (HasCanonicalPosition<Scn>) {
+      return scene.canonical_position(p);
+    } else {
+      (void)scene;
+      return p.position;
+    }
+  };
+}
+
+/// Clusters a pool's endpoints on `grid` (by canonical position where the scene has one).
+template <LightSampledScene Scn, ParallelFor P>
+void cluster(const Context<Scn>& ctx, const VoxelGrid<typename Scn::Scalar>& grid, Clustering<typename Scn::Scalar>& clustering,
+             const P& parallel_for) {
+  clustering.build(grid, ctx.pool.segments, canonical_map(ctx.scene), parallel_for);
+}
+
+/// The disk support's junctions of a pool (by canonical position where the scene has one).
+template <LightSampledScene Scn, ParallelFor P>
+void join(const Context<Scn>& ctx, typename Scn::Scalar radius, DiskJunctions<typename Scn::Scalar>& junctions,
+          const P& parallel_for) {
+  using T = typename Scn::Scalar;
+  junctions.build(radius, std::span<const Segment<T>>(ctx.pool.segments), canonical_map(ctx.scene), T(0.5), parallel_for);
+}
+
+/// The voxel size of iteration 1 when the options leave it at 0: 4x the average pixel footprint
+/// (distance to the first hit times the side of a pixel's solid angle), from the pixel centres
+/// of every 7th pixel (deterministic and cheap).
+template <LightSampledScene Scn>
+[[nodiscard]] typename Scn::Scalar pixel_footprint_cell(const Scn& scene) {
+  using T = typename Scn::Scalar;
+  const auto& sensor = scene.sensor();
+  double sum = 0;
+  std::uint64_t count = 0;
+  for (std::uint32_t p = 0; p < sensor.pixel_count(); p += 7) {
+    const auto ray = sensor.sample_ray(SensorSampleQuery<T>{p, Vec2<T>(T(0.5)), Vec2<T>(T(0.5))});
+    if (!ray || !(ray->pdf_direction > T(0))) continue;
+    const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{ray->origin.position, ray->direction}});
+    if (!hit) continue;
+    sum += double(hit->distance) / std::sqrt(double(ray->pdf_direction));
+    ++count;
+  }
+  if (count == 0) return T(1e-2);
+  return T(4.0 * sum / double(count));
+}
+
+/// The voxel grid of an iteration: jittered from the iteration's own stream, or aligned.
+template <Real T>
+[[nodiscard]] VoxelGrid<T> grid(const FilteringOptions<T>& options, T cell, std::uint64_t stream) {
+  return options.jitter ? VoxelGrid<T>::jittered(cell, options.seed, stream) : VoxelGrid<T>(cell);
+}
+
+/// The disk radius with the area of a voxel face: pi r^2 = h^2.
+template <Real T>
+[[nodiscard]] T disk_radius(T cell) noexcept {
+  return cell / std::sqrt(pi<T>);
+}
+
+}  // namespace segpath::filtering

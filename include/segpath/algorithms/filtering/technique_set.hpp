@@ -1,0 +1,41 @@
+// The technique set of segment filtering as data (SPEC 1.6): which of the library's samplers
+// draw into the pool, and how many samples each draws per iteration. MVF, PhF and BDPF are
+// three sets (technique_set); every stage reads the set, never the method's name. A user's
+// own samplers join through FilteringTechnique (techniques.hpp).
+#pragma once
+
+#include "segpath/algorithms/filtering/options.hpp"
+
+namespace segpath::filtering {
+
+struct TechniqueSet {
+  /// Sensor start (N29): one sensor segment per pixel (every method has it: the gather needs it).
+  bool sensor_start = true;
+  /// Approximate successors (N31, N33) from every camera technique point: camera paths.
+  bool camera_successors = false;
+  /// Light-end bridges (N34, approximate): from every camera technique point, one segment to a
+  /// light point drawn by the emitter.
+  bool next_event = false;
+  /// Light start (N30): light_paths_per_pixel x #pixels light paths; 0: none.
+  double light_paths_per_pixel = 0;
+  /// Approximate predecessors (N32, N33) from every light technique point: light paths.
+  bool light_predecessors = false;
+  /// Bridges (N34) from every camera technique point to a light-born start.
+  bool bridges = false;
+};
+
+/// The technique set of the options' method: MVF camera paths (and next-event segments), PhF
+/// sensor segments and light paths, BDPF both (and bridges).
+template <Real T>
+[[nodiscard]] constexpr TechniqueSet technique_set(const FilteringOptions<T>& o) noexcept {
+  TechniqueSet set;
+  const bool camera = o.mode != FilteringMode::phf, light = o.mode != FilteringMode::mvf;
+  set.camera_successors = camera;
+  set.next_event = camera && o.next_event;
+  set.light_paths_per_pixel = light ? double(o.light_path_ratio) : 0.0;
+  set.light_predecessors = light;
+  set.bridges = o.mode == FilteringMode::bdpf && o.bridges;
+  return set;
+}
+
+}  // namespace segpath::filtering
