@@ -4,6 +4,7 @@
 // Customization points: Smp::Technique, Smp::is_dirac, sample(scene, t, rng), pdf(scene, t, s).
 #pragma once
 
+#include "segpath/concepts/manifold.hpp"
 #include "segpath/core/rng.hpp"
 #include "segpath/core/segment.hpp"
 #include "segpath/core/spectrum.hpp"
@@ -69,5 +70,14 @@ concept HasSegmentPdf = requires(const Smp& smp, const Scn& scene,
 template <class Smp, class Scn>
 concept SegmentSampler = detail::HasTechnique<Smp> && detail::HasSamplerIsDirac<Smp> &&
                          detail::HasSegmentSample<Smp, Scn> && detail::HasSegmentPdf<Smp, Scn>;
+
+/// A sampler's pdf from its unoccluded_pdf (the density with the visibility factor left
+/// out): `unoccluded` times V(s.x, s.y), the visibility ray fired only where `unoccluded` is
+/// not 0 (a zero density needs no ray).
+template <class Scn, Real T>
+[[nodiscard]] SEGPATH_FORCE_INLINE T visibility_masked(const Scn& scene, const Segment<T>& s, T unoccluded) noexcept {
+  if (unoccluded == T(0)) return unoccluded;
+  return scene.visible(VisibilityQuery<T>{s.x, s.y}) ? unoccluded : T(0);
+}
 
 }  // namespace segpath
