@@ -148,7 +148,7 @@ struct SceneArchetype : ManifoldArchetype<T> {
   [[nodiscard]] SensorArchetype<T> sensor() const noexcept { return {}; }
 };
 
-/// SegmentSampler, points 1-4, for any Scene.
+/// SegmentSampler, points 1-5, for any Scene.
 struct SegmentSamplerArchetype {
   struct Technique {};
   static constexpr bool is_dirac = false;
@@ -162,6 +162,11 @@ struct SegmentSamplerArchetype {
   template <Scene Scn>
   [[nodiscard]] scene_scalar_t<Scn> pdf(const Scn&, const Technique&,
                                         const Segment<scene_scalar_t<Scn>>&) const noexcept {
+    return scene_scalar_t<Scn>(0);
+  }
+  template <Scene Scn>
+  [[nodiscard]] scene_scalar_t<Scn> unoccluded_pdf(const Scn&, const Technique&,
+                                                   const Segment<scene_scalar_t<Scn>>&) const noexcept {
     return scene_scalar_t<Scn>(0);
   }
 };

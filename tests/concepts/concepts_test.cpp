@@ -659,7 +659,7 @@ static_assert(!LightSampledScene<NoSensor> && detail::HasSampledEmitter<NoSensor
 }  // namespace scene
 
 // ---------------------------------------------------------------------------------------
-// SegmentSampler (concepts/sampler.hpp), points 1-4, on the archetype scene.
+// SegmentSampler (concepts/sampler.hpp), points 1-5, on the archetype scene.
 
 namespace sampler {
 using Scn = arch::SceneArchetype<float>;
@@ -693,41 +693,73 @@ struct PdfVoid {
   template <class Sc>
   void pdf(const Sc&, const Tech&, const Segment<typename Sc::Scalar>&) const noexcept;
 };
+struct UnoccludedPdf {
+  template <class Sc>
+  typename Sc::Scalar unoccluded_pdf(const Sc&, const Tech&,
+                                     const Segment<typename Sc::Scalar>&) const noexcept;
+};
+struct UnoccludedPdfVoid {
+  template <class Sc>
+  void unoccluded_pdf(const Sc&, const Tech&, const Segment<typename Sc::Scalar>&) const noexcept;
+};
+/// unoccluded_pdf without the scene argument (a sampler whose density never needs it must
+/// still take the scene, like pdf).
+struct UnoccludedPdfNoScene {
+  template <class T>
+  T unoccluded_pdf(const Tech&, const Segment<T>&) const noexcept;
+};
 
 template <class Smp>
 constexpr int failures = !detail::HasTechnique<Smp> + !detail::HasSamplerIsDirac<Smp> +
-                         !detail::HasSegmentSample<Smp, Scn> + !detail::HasSegmentPdf<Smp, Scn>;
+                         !detail::HasSegmentSample<Smp, Scn> + !detail::HasSegmentPdf<Smp, Scn> +
+                         !detail::HasUnoccludedPdf<Smp, Scn>;
 
-using Ok = Model<TechniqueIs, IsDirac, Sample, Pdf>;
+using Ok = Model<TechniqueIs, IsDirac, Sample, Pdf, UnoccludedPdf>;
 static_assert(SegmentSampler<Ok, Scn> && failures<Ok> == 0);
 static_assert(SegmentSampler<Ok, arch::SceneArchetype<double, Rgb<double>>>);
 
-using NoTechnique = Model<IsDirac, Sample, Pdf>;
+// Point 1 (without a Technique the other requirements cannot be checked: they name it).
+using NoTechnique = Model<IsDirac, Sample, Pdf, UnoccludedPdf>;
 static_assert(!SegmentSampler<NoTechnique, Scn> && !detail::HasTechnique<NoTechnique> &&
               detail::HasSamplerIsDirac<NoTechnique>);
 
-using NoIsDirac = Model<TechniqueIs, Sample, Pdf>;
+// Point 2.
+using NoIsDirac = Model<TechniqueIs, Sample, Pdf, UnoccludedPdf>;
 static_assert(!SegmentSampler<NoIsDirac, Scn> && !detail::HasSamplerIsDirac<NoIsDirac> &&
               failures<NoIsDirac> == 1);
 
-using NoSample = Model<TechniqueIs, IsDirac, Pdf>;
+// Point 3.
+using NoSample = Model<TechniqueIs, IsDirac, Pdf, UnoccludedPdf>;
 static_assert(!SegmentSampler<NoSample, Scn> && !detail::HasSegmentSample<NoSample, Scn> &&
               failures<NoSample> == 1);
-using SampleNotOptional = Model<TechniqueIs, IsDirac, SampleBare, Pdf>;
+using SampleNotOptional = Model<TechniqueIs, IsDirac, SampleBare, Pdf, UnoccludedPdf>;
 static_assert(!SegmentSampler<SampleNotOptional, Scn> &&
               !detail::HasSegmentSample<SampleNotOptional, Scn> &&
               failures<SampleNotOptional> == 1);
-using SampleWrongSpectrum = Model<TechniqueIs, IsDirac, SampleOtherSpectrum, Pdf>;
+using SampleWrongSpectrum = Model<TechniqueIs, IsDirac, SampleOtherSpectrum, Pdf, UnoccludedPdf>;
 static_assert(!SegmentSampler<SampleWrongSpectrum, Scn> &&
               !detail::HasSegmentSample<SampleWrongSpectrum, Scn> &&
               failures<SampleWrongSpectrum> == 1);
 
-using NoPdf = Model<TechniqueIs, IsDirac, Sample>;
+// Point 4.
+using NoPdf = Model<TechniqueIs, IsDirac, Sample, UnoccludedPdf>;
 static_assert(!SegmentSampler<NoPdf, Scn> && !detail::HasSegmentPdf<NoPdf, Scn> &&
               failures<NoPdf> == 1);
-using PdfMistyped = Model<TechniqueIs, IsDirac, Sample, PdfVoid>;
+using PdfMistyped = Model<TechniqueIs, IsDirac, Sample, PdfVoid, UnoccludedPdf>;
 static_assert(!SegmentSampler<PdfMistyped, Scn> && !detail::HasSegmentPdf<PdfMistyped, Scn> &&
               failures<PdfMistyped> == 1);
+
+// Point 5: pdf alone is not enough (and unoccluded_pdf alone is not either: NoPdf).
+using NoUnoccludedPdf = Model<TechniqueIs, IsDirac, Sample, Pdf>;
+static_assert(!SegmentSampler<NoUnoccludedPdf, Scn> && !detail::HasUnoccludedPdf<NoUnoccludedPdf, Scn> &&
+              failures<NoUnoccludedPdf> == 1);
+using UnoccludedPdfMistyped = Model<TechniqueIs, IsDirac, Sample, Pdf, UnoccludedPdfVoid>;
+static_assert(!SegmentSampler<UnoccludedPdfMistyped, Scn> &&
+              !detail::HasUnoccludedPdf<UnoccludedPdfMistyped, Scn> && failures<UnoccludedPdfMistyped> == 1);
+using UnoccludedPdfWithoutScene = Model<TechniqueIs, IsDirac, Sample, Pdf, UnoccludedPdfNoScene>;
+static_assert(!SegmentSampler<UnoccludedPdfWithoutScene, Scn> &&
+              !detail::HasUnoccludedPdf<UnoccludedPdfWithoutScene, Scn> &&
+              failures<UnoccludedPdfWithoutScene> == 1);
 }  // namespace sampler
 
 // ---------------------------------------------------------------------------------------
@@ -859,6 +891,7 @@ TEMPLATE_TEST_CASE("archetype members are callable and return their trivial valu
   const arch::SegmentSamplerArchetype sampler;
   CHECK_FALSE(sampler.sample(scene, {}, rng).has_value());
   CHECK(sampler.pdf(scene, {}, s) == T(0));
+  CHECK(sampler.unoccluded_pdf(scene, {}, s) == T(0));
 
   RecordingSink<Rgb<T>> sink;
   arch::EstimatorArchetype{}.estimate(scene, EstimateQuery{3, 0}, rng, sink);

@@ -11,6 +11,7 @@
 #include <segpath/testing/sphere_interior.hpp>
 #include <segpath/testing/statistics.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -89,6 +90,45 @@ class SlabWithCamera : public st::PeriodicSlab<T> {
     return p;
   }
   HemisphereCamera<T> camera_;
+};
+
+/// `Base` with an opaque ball that only visibility queries see (intersect stays Base's): for
+/// tests of density evaluation on given segments, where V(s) is the only thing that changes
+/// between two scenes of this one type (samplers must be instantiated on it: `visible` is
+/// not virtual). Radius 0, the default, blocks nothing. Models whatever scene concepts Base
+/// models.
+template <class Base>
+class WithOccluder : public Base {
+ public:
+  using T = typename Base::Scalar;
+  explicit WithOccluder(const Base& base, const Vec3<T>& centre = {}, T radius = 0)
+      : Base(base), centre_(centre), radius_(radius) {}
+  /// A copy with the ball moved to `centre` and resized to `radius`.
+  [[nodiscard]] WithOccluder with_ball(const Vec3<T>& centre, T radius) const {
+    WithOccluder out(*this);
+    out.centre_ = centre;
+    out.radius_ = radius;
+    return out;
+  }
+  [[nodiscard]] bool visible(const VisibilityQuery<T>& q) const noexcept { return !blocks(q) && Base::visible(q); }
+  /// Whether the ball meets the open segment from q.from to q.to (the ray, for a `direction` end).
+  [[nodiscard]] bool blocks(const VisibilityQuery<T>& q) const noexcept {
+    if (q.from.kind == PointKind::direction) return false;
+    const glm::dvec3 o(q.from.position), c(centre_);
+    const bool ray = q.to.kind == PointKind::direction;
+    const glm::dvec3 d = ray ? glm::dvec3(q.to.position) : glm::dvec3(q.to.position) - o;
+    const double dd = glm::dot(d, d);
+    if (!(dd > 0)) return false;
+    double t = glm::dot(c - o, d) / dd;
+    t = std::max(t, 0.0);
+    if (!ray) t = std::min(t, 1.0);
+    const glm::dvec3 closest = o + t * d - c;
+    return glm::dot(closest, closest) < double(radius_) * double(radius_);
+  }
+
+ private:
+  Vec3<T> centre_;
+  T radius_;
 };
 
 /// Uniforms all equal to `value` (0 or 1 - 2^-24: the ends of Pcg32's range).

@@ -71,11 +71,29 @@ class ApproximateNextSegmentSampler {
     return out;
   }
 
-  /// p_K(s.x | s_i) p_w(s^ | y_i, s_i) |n_y . s^| / d^2 with V(x, y), for any segment s:
-  /// NextSegmentSampler's (N31).
-  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+  /// p_K(s.x | s_i) p_w(s^ | y_i, s_i) |n_y . s^| / d^2 as if y were the first hit from x, for
+  /// any segment s: NextSegmentSampler's unoccluded (N31).
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
     if (s.y.kind != PointKind::direction && !(s.length_squared() > T(0))) return T(0);
-    return exact_.pdf(scene, t, s);
+    return exact_.unoccluded_pdf(scene, t, s);
+  }
+
+  /// unoccluded_pdf with V(x, y): NextSegmentSampler's (N31).
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return visibility_masked(scene, s, unoccluded_pdf(scene, t, s));
+  }
+
+  /// The (N31) factors without the kernel's: NextSegmentSampler's direction_pdf (solid angle
+  /// at y_i) and area_jacobian. With the junction copied (x = y_i), a caller that knows the
+  /// kernel's density K at zero distance has unoccluded_pdf = K direction_pdf area_jacobian
+  /// up to rounding.
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T direction_pdf(const Scn& scene, const SurfacePoint<T>& y,
+                                                            const Vec3<T>& to_sensor,
+                                                            const Vec3<T>& direction) noexcept {
+    return NextSegmentSampler<Scn, K>::direction_pdf(scene, y, to_sensor, direction);
+  }
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T area_jacobian(const Segment<T>& s) noexcept {
+    return NextSegmentSampler<Scn, K>::area_jacobian(s);
   }
 
  private:
@@ -124,10 +142,26 @@ class ApproximateLightNextSegmentSampler {
     return out;
   }
 
-  /// p_K(s.y | s_{i+1}) p_w(-s^ | y, s^_{i+1}) |n_x . s^| / d^2 with V(x, y), for any segment s:
-  /// LightNextSegmentSampler's.
+  /// p_K(s.y | s_{i+1}) p_w(-s^ | y, s^_{i+1}) |n_x . s^| / d^2 as if x were the first hit
+  /// from y, for any segment s: LightNextSegmentSampler's.
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return exact_.unoccluded_pdf(scene, t, s);
+  }
+
+  /// unoccluded_pdf with V(x, y): LightNextSegmentSampler's.
   [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
     return exact_.pdf(scene, t, s);
+  }
+
+  /// LightNextSegmentSampler's direction_pdf (adjoint BSDF, solid angle at y) and
+  /// area_jacobian: the density without the kernel's factor.
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T direction_pdf(const Scn& scene, const SurfacePoint<T>& y,
+                                                            const Vec3<T>& to_sensor,
+                                                            const Vec3<T>& to_light) noexcept {
+    return LightNextSegmentSampler<Scn, K>::direction_pdf(scene, y, to_sensor, to_light);
+  }
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T area_jacobian(const Segment<T>& s) noexcept {
+    return LightNextSegmentSampler<Scn, K>::area_jacobian(s);
   }
 
  private:

@@ -80,15 +80,20 @@ class KernelBridgeSampler {
     return out;
   }
 
-  /// p_K(s.x | s_{i-1}) p_K(s.y | s_{i+1}) V(s.x, s.y) for any segment s.
-  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+  /// p_K(s.x | s_{i-1}) p_K(s.y | s_{i+1}) for any segment s: the density of the two kernel
+  /// draws, before the visibility test.
+  [[nodiscard]] T unoccluded_pdf(const Scn&, const Technique& t, const Segment<T>& s) const noexcept {
     if (!(s.length_squared() > T(0))) return T(0);
     const T p_x = kernel_.pdf(KernelQuery<T>{t.camera, s});
     if (!(p_x > T(0))) return T(0);
     const T p_y = kernel_.pdf(KernelQuery<T>{detail::reversed(t.light), detail::reversed(s)});
     if (!(p_y > T(0))) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
     return p_x * p_y;
+  }
+
+  /// p_K(s.x | s_{i-1}) p_K(s.y | s_{i+1}) V(s.x, s.y) for any segment s.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return visibility_masked(scene, s, unoccluded_pdf(scene, t, s));
   }
 
  private:
@@ -150,15 +155,20 @@ class LightBridgeSampler {
     return out;
   }
 
-  /// p_K(s.x | s_{i-1}) pdf_towards(s.y | s.x) V(s.x, s.y) for any segment s.
-  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+  /// p_K(s.x | s_{i-1}) pdf_towards(s.y | s.x) for any segment s: the density of the kernel
+  /// and emitter draws, before the visibility test.
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
     if (s.y.kind != PointKind::direction && !(s.length_squared() > T(0))) return T(0);
     const T p_x = kernel_.pdf(KernelQuery<T>{t.camera, s});
     if (!(p_x > T(0))) return T(0);
     const T p_y = scene.emitter().pdf_towards(EmitterPdfTowardsQuery<T>{s.x, s.y});
     if (!(p_y > T(0))) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
     return p_x * p_y;
+  }
+
+  /// p_K(s.x | s_{i-1}) pdf_towards(s.y | s.x) V(s.x, s.y) for any segment s.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return visibility_masked(scene, s, unoccluded_pdf(scene, t, s));
   }
 
  private:
@@ -230,8 +240,8 @@ class SensorBridgeSampler {
   }
 
   /// p_W,pos(s.x) p_K(s.y | s_2) for any segment s the sensor sees (importance() has a
-  /// pixel for it) with V(s.x, s.y); 0 otherwise.
-  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+  /// pixel for it), 0 otherwise: the density of the two draws, before the visibility test.
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
     if (!(s.length_squared() > T(0))) return T(0);
     const T p_y = kernel_.pdf(KernelQuery<T>{detail::reversed(t.light), detail::reversed(s)});
     if (!(p_y > T(0))) return T(0);
@@ -240,8 +250,12 @@ class SensorBridgeSampler {
     if (!response || !(response->importance > T(0))) return T(0);
     const T p_x = scene.sensor().pdf(query).position;
     if (!(p_x > T(0))) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
     return p_x * p_y;
+  }
+
+  /// p_W,pos(s.x) p_K(s.y | s_2) V(s.x, s.y) for any segment s the sensor sees; 0 otherwise.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return visibility_masked(scene, s, unoccluded_pdf(scene, t, s));
   }
 
  private:

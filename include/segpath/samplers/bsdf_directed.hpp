@@ -59,16 +59,20 @@ class BsdfDirectedSegmentSampler {
     return out;
   }
 
-  /// (1/|M|) p_w(s^ | x, s^') |n_y . s^| / d^2 for any segment from a surface point x whose
-  /// y is visible from x (the first hit); 0 otherwise (and for delta lobes, by the BSDF's pdf).
-  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+  /// (1/|M|) p_w(s^ | x, s^') |n_y . s^| / d^2 for any segment from a surface point x, as if
+  /// y were the first hit from x; 0 otherwise (and for delta lobes, by the BSDF's pdf).
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
     if (s.x.kind != PointKind::surface) return T(0);
     if (s.y.kind == PointKind::surface && !(s.length_squared() > T(0))) return T(0);
     const T p_direction =
         scene.bsdf().pdf(BsdfQuery<T>{s.x, t.to_sensor, s.direction(), Transport::radiance});
     if (!(p_direction > T(0))) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
     return solid_angle_to_area(p_direction, s.x, s.y) / scene.area();
+  }
+
+  /// unoccluded_pdf where y is visible from x (the first hit), 0 otherwise (N28).
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return visibility_masked(scene, s, unoccluded_pdf(scene, t, s));
   }
 };
 

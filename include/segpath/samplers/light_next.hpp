@@ -114,17 +114,36 @@ class LightNextSegmentSampler {
     }
   }
 
-  /// p(s | s_{i+1}) for any segment s, including V(x, y) (x must be the first hit from y).
-  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+  /// p(s | s_{i+1}) for any segment s as if x were the first hit from y:
+  /// p_K(y | s_{i+1}) direction_pdf(y, -s^, s^_{i+1}) area_jacobian(s) (the last two grouped
+  /// as solid_angle_to_area, so rounding differs from that product).
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
     if (s.x.kind == PointKind::direction || !(s.length_squared() > T(0))) return T(0);
     const T p_kernel = kernel_.pdf(KernelQuery<T>{detail::reversed(t.next), detail::reversed(s)});
     if (!(p_kernel > T(0))) return T(0);
-    const Vec3<T> direction = s.direction();
-    const T p_direction =
-        scene.bsdf().pdf(BsdfQuery<T>{s.y, -direction, t.direction, Transport::importance});
+    const T p_direction = direction_pdf(scene, s.y, -s.direction(), t.direction);
     if (!(p_direction > T(0))) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
     return p_kernel * solid_angle_to_area(p_direction, s.y, s.x);
+  }
+
+  /// p(s | s_{i+1}): unoccluded_pdf where x is the first hit from y, 0 otherwise.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return visibility_masked(scene, s, unoccluded_pdf(scene, t, s));
+  }
+
+  /// p_w(to_sensor | y, to_light) of the mirrored (N31), in solid angle at y: the adjoint BSDF
+  /// at the junction y samples `to_sensor` = -s^_i given `to_light` = s^_{i+1} (importance
+  /// transport). Needs no sampler object and no Technique: for loops over (segment,
+  /// technique) pairs.
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T direction_pdf(const Scn& scene, const SurfacePoint<T>& y,
+                                                            const Vec3<T>& to_sensor,
+                                                            const Vec3<T>& to_light) noexcept {
+    return scene.bsdf().pdf(BsdfQuery<T>{y, to_sensor, to_light, Transport::importance});
+  }
+
+  /// |n_x . s^| / |x - y|^2: direction_pdf's solid angle at y to x's area measure.
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T area_jacobian(const Segment<T>& s) noexcept {
+    return solid_angle_to_area(T(1), s.y, s.x);
   }
 
  private:

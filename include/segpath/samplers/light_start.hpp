@@ -68,19 +68,39 @@ class LightStartSampler {
     return out;
   }
 
-  /// p(s) of (N30) for any segment: the emitter's densities for the end y and the direction
-  /// -s^ it leaves in, times |n_x . s^| / d^2 (|n_x . s^| for a distant y), and 0 unless x
-  /// is a surface point visible from y (the first hit).
-  [[nodiscard]] T pdf(const Scn& scene, const Technique&, const Segment<T>& s) const noexcept {
+  /// p(s) of (N30) for any segment as if x were the first hit from y: the emitter's
+  /// densities for the end y and the direction -s^ it leaves in, times |n_x . s^| / d^2
+  /// (|n_x . s^| for a distant y); 0 unless x is a surface point.
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique&, const Segment<T>& s) const noexcept {
     if (s.x.kind != PointKind::surface) return T(0);
     const bool distant = s.y.kind == PointKind::direction;
     if (!distant && !(s.length_squared() > T(0))) return T(0);
     const Vec3<T> direction = s.direction();
-    const EmissionPdf<T> e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{s.y, -direction});
-    const T pdf_emission = e.position * e.direction;
+    const T pdf_emission = emission_pdf(scene, s.y, -direction);
     if (!(pdf_emission > T(0))) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
     return distant ? pdf_emission * endpoint_cosine(s.x, direction) : solid_angle_to_area(pdf_emission, s.y, s.x);
+  }
+
+  /// p(s) of (N30): unoccluded_pdf where x is the first hit from y, 0 otherwise.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return visibility_masked(scene, s, unoccluded_pdf(scene, t, s));
+  }
+
+  /// The emitter's pdf_position(y) pdf_direction(leaving | y) (N30) in the product of y's
+  /// measure and solid angle at y; for a distant y `leaving` is read as the emitter concept
+  /// says (concepts/emitter.hpp: a point of the emitted ray) and the product is solid angle
+  /// times area on the plane across the ray.
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T emission_pdf(const Scn& scene, const SurfacePoint<T>& y,
+                                                           const Vec3<T>& leaving) noexcept {
+    const EmissionPdf<T> e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{y, leaving});
+    return e.position * e.direction;
+  }
+
+  /// What turns emission_pdf into x's area measure: |n_x . s^| / |x - y|^2, or |n_x . s^| for
+  /// a distant y (`direction` = s^, the segment's unit direction as the caller has it).
+  /// emission_pdf * area_jacobian is unoccluded_pdf up to rounding (grouped differently).
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T area_jacobian(const Segment<T>& s, const Vec3<T>& direction) noexcept {
+    return s.y.kind == PointKind::direction ? endpoint_cosine(s.x, direction) : solid_angle_to_area(T(1), s.y, s.x);
   }
 };
 

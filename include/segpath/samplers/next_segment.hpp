@@ -53,16 +53,36 @@ class NextSegmentSampler {
     }
   }
 
-  /// p(s | s_i) of (N31) for any segment s, including V(x, y) (y must be the first hit).
-  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+  /// p(s | s_i) of (N31) for any segment s as if y were the first hit from x:
+  /// p_K(x | s_i) direction_pdf(y_i, -s^_i, s^) area_jacobian(s) (the last two grouped as
+  /// solid_angle_to_area, so rounding differs from that product).
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
     const Segment<T>& prev = t.previous;
     const T p_kernel = kernel_.pdf(KernelQuery<T>{prev, s});
     if (!(p_kernel > T(0))) return T(0);
-    const T p_direction = scene.bsdf().pdf(
-        BsdfQuery<T>{prev.y, -t.direction, s.direction(), Transport::radiance});
+    const T p_direction = direction_pdf(scene, prev.y, -t.direction, s.direction());
     if (!(p_direction > T(0))) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
     return p_kernel * solid_angle_to_area(p_direction, s.x, s.y);
+  }
+
+  /// p(s | s_i) of (N31): unoccluded_pdf where y is the first hit from x, 0 otherwise.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return visibility_masked(scene, s, unoccluded_pdf(scene, t, s));
+  }
+
+  /// p_w(direction | y_i, s_i) of (N31), in solid angle: the BSDF at the previous end y_i
+  /// (translated, N20) samples `direction` given `to_sensor` = -s^_i (radiance transport).
+  /// Needs no sampler object and no Technique: for loops over (segment, technique) pairs.
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T direction_pdf(const Scn& scene, const SurfacePoint<T>& y,
+                                                            const Vec3<T>& to_sensor,
+                                                            const Vec3<T>& direction) noexcept {
+    return scene.bsdf().pdf(BsdfQuery<T>{y, to_sensor, direction, Transport::radiance});
+  }
+
+  /// |n_y . s^| / |x - y|^2 (1 for a `direction` end y): direction_pdf's solid angle at x to
+  /// y's area measure.
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T area_jacobian(const Segment<T>& s) noexcept {
+    return solid_angle_to_area(T(1), s.x, s.y);
   }
 
  private:

@@ -52,8 +52,8 @@ class RaytracedSegmentSampler {
   }
 
   /// (1/|M|) (cos_x / pi) |n_y . s^| / d^2 for any segment between surface points whose
-  /// direction leaves the front of x and whose y is visible from x (the first hit); else 0.
-  [[nodiscard]] T pdf(const Scn& scene, const Technique&, const Segment<T>& s) const noexcept {
+  /// direction leaves the front of x, as if y were the first hit from x; else 0.
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique&, const Segment<T>& s) const noexcept {
     if (s.x.kind != PointKind::surface || s.y.kind != PointKind::surface) return T(0);
     const Vec3<T> delta = s.y.position - s.x.position;
     const T d2 = glm::dot(delta, delta);
@@ -61,8 +61,12 @@ class RaytracedSegmentSampler {
     const Vec3<T> direction = delta / std::sqrt(d2);
     const T cos_x = glm::dot(s.x.normal, direction);
     if (!(cos_x > T(0))) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
     return cos_x * inv_pi<T> * endpoint_cosine(s.y, direction) / (d2 * scene.area());
+  }
+
+  /// unoccluded_pdf where y is visible from x (the first hit), 0 otherwise (N27).
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return visibility_masked(scene, s, unoccluded_pdf(scene, t, s));
   }
 };
 

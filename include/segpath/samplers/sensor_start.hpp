@@ -48,14 +48,34 @@ class SensorStartSampler {
     return out;
   }
 
-  /// p(s | pixel): zero unless the sensor maps s to this pixel and y is the first hit.
-  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
-    const SensorQuery<T> query{s.x, s.direction()};
-    const auto response = scene.sensor().importance(query);
+  /// p(s | pixel) as if y were the first hit from x: ray_pdf(x, s^) |n_y . s^| / d^2, zero
+  /// unless the sensor maps s to this pixel.
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    const Vec3<T> direction = s.direction();
+    const auto response = scene.sensor().importance(SensorQuery<T>{s.x, direction});
     if (!response || response->pixel != t.pixel) return T(0);
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return T(0);
-    const SensorPdf<T> p = scene.sensor().pdf(query);
-    return solid_angle_to_area(p.position * p.direction, s.x, s.y);
+    return solid_angle_to_area(ray_pdf(scene, s.x, direction), s.x, s.y);
+  }
+
+  /// p(s | pixel) (N29): unoccluded_pdf where y is the first hit from x, 0 otherwise.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return visibility_masked(scene, s, unoccluded_pdf(scene, t, s));
+  }
+
+  /// The sensor's density p_pos(x) p_w(direction | x) of a primary ray from x, in the product
+  /// of x's measure and solid angle at x (pixel-independent: the pixel selects, it does not
+  /// weight). The part of (N29) a caller that pools sensor segments of every pixel needs.
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T ray_pdf(const Scn& scene, const SurfacePoint<T>& x,
+                                                      const Vec3<T>& direction) noexcept {
+    const SensorPdf<T> p = scene.sensor().pdf(SensorQuery<T>{x, direction});
+    return p.position * p.direction;
+  }
+
+  /// |n_y . s^| / |x - y|^2 (1 for a `direction` end y): turns ray_pdf's solid angle at x into
+  /// y's area measure; ray_pdf(x, s^) * area_jacobian(s) is unoccluded_pdf up to rounding
+  /// (the multiplications are grouped differently).
+  [[nodiscard]] static SEGPATH_FORCE_INLINE T area_jacobian(const Segment<T>& s) noexcept {
+    return solid_angle_to_area(T(1), s.x, s.y);
   }
 };
 

@@ -47,12 +47,17 @@ class UniformSegmentSampler {
     return out;
   }
 
-  /// 1/|M|^2 for any segment between two surface points (V does not enter: occluded
-  /// segments are drawn too), 0 for point and direction endpoints.
-  [[nodiscard]] T pdf(const Scn& scene, const Technique&, const Segment<T>& s) const noexcept {
+  /// 1/|M|^2 for any segment between two surface points, 0 for point and direction
+  /// endpoints. V does not enter (occluded segments are drawn too): the same as pdf.
+  [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique&, const Segment<T>& s) const noexcept {
     if (s.x.kind != PointKind::surface || s.y.kind != PointKind::surface) return T(0);
     const T inv_area = T(1) / scene.area();
     return inv_area * inv_area;
+  }
+
+  /// unoccluded_pdf: the uniform sampler's density has no visibility factor.
+  [[nodiscard]] T pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
+    return unoccluded_pdf(scene, t, s);
   }
 };
 
