@@ -62,7 +62,6 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
   auto& stats = ctx.stats;
   const auto clusters = clustering.clusters();
   const auto refs = clustering.refs();
-  const auto& bsdf = scene.bsdf();
   if (side) light_side_start(ctx, *side, parallel_for);
   // A light technique sample u whose draw would itself try a predecessor (D_lt, add_light_term).
   const auto deep = [&](std::uint32_t u) { return side && ctx.deep(side->depth[u]); };
@@ -111,11 +110,11 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
           for (std::uint32_t q = cl.middle; q < cl.end; ++q) {
             const std::uint32_t t = refs[q].segment;
             if (!(pool.flags[t] & camera_technique) || t == sp) continue;
-            sum += camera_technique_pdf(bsdf, pool, t, sp);
+            sum += camera_technique_pdf(scene, pool, t, sp);
             pairs[c] += 1;
           }
         }
-        camera_sum[sp] = cl.kernel * sum * camera_measure(pool, sp);
+        camera_sum[sp] = cl.kernel * sum * camera_measure<Scn>(pool, sp);
       }
     }
     // Light technique samples: segments starting here that were continued backwards; they
@@ -141,7 +140,7 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
         const std::uint32_t sp = refs[r].segment;
         if (!light_reachable(pool, sp)) continue;
         const Vec3<T> to_sensor = -pool.last_direction[sp];
-        const T scale = cl.kernel * light_measure(pool, sp);
+        const T scale = cl.kernel * light_measure<Scn>(pool, sp);
         T sum = T(0);
         if (common) {
           const T cosine = glm::dot(to_sensor, *common);
@@ -162,7 +161,7 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
           for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
             const std::uint32_t t = refs[q].segment;
             if (!(pool.flags[t] & light_technique) || t == sp) continue;
-            const T pdf = light_technique_pdf(bsdf, pool, t, sp);
+            const T pdf = light_technique_pdf(scene, pool, t, sp);
             sum += pdf;
             pairs[c] += 1;
             if (side && scale * pdf > T(0)) {
@@ -214,7 +213,6 @@ void compute_densities(Context<Scn>& ctx, const DiskJunctions<typename Scn::Scal
   const Scn& scene = ctx.scene;
   auto& pool = ctx.pool;
   auto& stats = ctx.stats;
-  const auto& bsdf = scene.bsdf();
   const T kernel = junctions.kernel();
   const bool bridges = ctx.techniques.bridges && pool.bridge_targets > 0;
   std::vector<T> camera_sum(pool.size(), T(0)), light_sum(pool.size(), T(0)), bridge_sum(bridges ? pool.size() : 0, T(0));
@@ -231,18 +229,18 @@ void compute_densities(Context<Scn>& ctx, const DiskJunctions<typename Scn::Scal
         if (!(pool.flags[t] & camera_technique)) continue;
         ++camera_points;
         if (!camera_reachable(pool, sp)) continue;
-        sum += camera_technique_pdf(bsdf, pool, t, sp);
+        sum += camera_technique_pdf(scene, pool, t, sp);
         pairs[c] += 1;
       }
-      if (sum > T(0)) camera_sum[sp] = kernel * sum * camera_measure(pool, sp);
+      if (sum > T(0)) camera_sum[sp] = kernel * sum * camera_measure<Scn>(pool, sp);
       sum = T(0);
       for (const std::uint32_t u : junctions.starting_near(sp)) {
         targets += (bridges && is_bridge_target(pool, u)) ? 1 : 0;
         if (!(pool.flags[u] & light_technique) || !light_reachable(pool, sp)) continue;
-        sum += light_technique_pdf(bsdf, pool, u, sp);
+        sum += light_technique_pdf(scene, pool, u, sp);
         pairs[c] += 1;
       }
-      if (sum > T(0)) light_sum[sp] = kernel * sum * light_measure(pool, sp);
+      if (sum > T(0)) light_sum[sp] = kernel * sum * light_measure<Scn>(pool, sp);
       if (bridges && bridge_reachable(pool, sp))
         bridge_sum[sp] = kernel * T(camera_points) * kernel * T(targets) / T(pool.bridge_targets);
       if (ctx.techniques.next_event) camera_points_at_x[sp] = kernel * T(camera_points);

@@ -33,15 +33,16 @@ struct LightSide {
 /// included; in the measure of s (area at y, N31 mirrored). 0 where no light predecessor can
 /// be s. D_l(s) sums it over the light technique samples among the s' starting near y_s.
 /// `scale` is light_pair_scale(pool, kernel, s), the part that depends on s alone.
-template <class B, Real T, Spectrum S>
-[[nodiscard]] T light_pair_density(const B& bsdf, const Pool<T, S>& pool, T scale, std::uint32_t s, std::uint32_t sp) noexcept {
+template <LightSampledScene Scn, Real T>
+[[nodiscard]] T light_pair_density(const Scn& scene, const Pool<T, typename Scn::Spectrum>& pool, T scale, std::uint32_t s,
+                                   std::uint32_t sp) noexcept {
   if (!(scale > T(0)) || pool.segments[sp].x.kind != PointKind::surface || (pool.flags[sp] & transmission_chain)) return T(0);
-  const T q = scale * light_technique_pdf(bsdf, pool, sp, s);
+  const T q = scale * light_technique_pdf(scene, pool, sp, s);
   return std::isfinite(q) && q > T(0) ? q : T(0);
 }
-template <Real T, Spectrum S>
-[[nodiscard]] T light_pair_scale(const Pool<T, S>& pool, T kernel, std::uint32_t s) noexcept {
-  return light_reachable(pool, s) ? kernel * light_measure(pool, s) : T(0);
+template <LightSampledScene Scn, Real T>
+[[nodiscard]] T light_pair_scale(const Pool<T, typename Scn::Spectrum>& pool, T kernel, std::uint32_t s) noexcept {
+  return light_reachable(pool, s) ? kernel * light_measure<Scn>(pool, s) : T(0);
 }
 
 /// The flags of the path-conditioned weighting and the light-start term of D_l (as
@@ -96,14 +97,13 @@ void light_side(const Context<Scn>& ctx, const DiskJunctions<typename Scn::Scala
   using T = typename Scn::Scalar;
   const auto& pool = ctx.pool;
   light_side_start(ctx, side, parallel_for);
-  const auto& bsdf = ctx.scene.bsdf();
   parallel_for(pool.size(), [&](std::size_t i) {
     const auto s = std::uint32_t(i);
-    const T scale = light_pair_scale(pool, junctions.kernel(), s);
+    const T scale = light_pair_scale<Scn>(pool, junctions.kernel(), s);
     if (!(scale > T(0))) return;
     for (const std::uint32_t u : junctions.starting_near(s)) {
       if (!(pool.flags[u] & light_technique)) continue;
-      add_light_term(ctx, side, s, u, light_pair_density(bsdf, pool, scale, s, u));
+      add_light_term(ctx, side, s, u, light_pair_density(ctx.scene, pool, scale, s, u));
     }
   });
 }

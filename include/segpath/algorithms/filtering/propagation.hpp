@@ -100,13 +100,13 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
   parallel_for(pool.size(), [&](std::size_t i) {
     const auto s = std::uint32_t(i);
     if constexpr (std::is_same_v<Support, DiskJunctions<T>>) {
-      scale[s] = light_pair_scale(pool, support.kernel(), s);
+      scale[s] = light_pair_scale<Scn>(pool, support.kernel(), s);
     } else {
       const std::uint32_t c = support.cluster_of_y(s);
-      if (c != no_cluster) scale[s] = light_pair_scale(pool, support.clusters()[c].kernel, s);
+      if (c != no_cluster) scale[s] = light_pair_scale<Scn>(pool, support.clusters()[c].kernel, s);
     }
   });
-  auto light_pair = [&](std::uint32_t s, std::uint32_t sp) -> T { return light_pair_density(bsdf, pool, scale[s], s, sp); };
+  auto light_pair = [&](std::uint32_t s, std::uint32_t sp) -> T { return light_pair_density(scene, pool, scale[s], s, sp); };
   if constexpr (std::is_same_v<Support, DiskJunctions<T>>) {
     auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
       return bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance}) *

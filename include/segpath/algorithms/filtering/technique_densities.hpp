@@ -1,4 +1,5 @@
-// The densities of the library's techniques for a pooled segment, in the segment's measure
+// The densities of the library's techniques for a pooled segment, from the samplers' own
+// density functions (samplers/), in the segment's measure
 // (area at x x area at y for a straight segment, area at x x solid angle at x for a chain):
 // the pooled segments are visible, so every density here is the unoccluded one (N29-N34).
 #pragma once
@@ -6,36 +7,52 @@
 #include "segpath/algorithms/filtering/pool.hpp"
 #include "segpath/concepts/scene.hpp"
 #include "segpath/core/geometry.hpp"
+#include "segpath/kernels/disk.hpp"
+#include "segpath/samplers/approximate.hpp"
+#include "segpath/samplers/light_start.hpp"
+#include "segpath/samplers/sensor_start.hpp"
 
 #include <cmath>
 #include <cstdint>
 
 namespace segpath::filtering {
 
+// The samplers filtering draws with (N33: approximate, the junction copied). Their kernel is
+// the support's (voxel or disk), which the densities below leave out: the support multiplies
+// by it, so the kernel type here is only a placeholder.
+template <class Scn>
+using CameraSuccessor = ApproximateNextSegmentSampler<Scn, DiskKernel<typename Scn::Scalar>>;
+template <class Scn>
+using LightPredecessor = ApproximateLightNextSegmentSampler<Scn, DiskKernel<typename Scn::Scalar>>;
+
 /// p_w(s' | t) of the camera successor from t's end y_t (solid angle at y_t).
-template <class B, Real T, Spectrum S>
-[[nodiscard]] T camera_technique_pdf(const B& bsdf, const Pool<T, S>& pool, std::uint32_t t, std::uint32_t sp) noexcept {
-  return bsdf.pdf(BsdfQuery<T>{pool.segments[t].y, -pool.last_direction[t], pool.first_direction[sp], Transport::radiance});
+template <LightSampledScene Scn>
+[[nodiscard]] typename Scn::Scalar camera_technique_pdf(const Scn& scene, const Pool<typename Scn::Scalar, typename Scn::Spectrum>& pool,
+                                                        std::uint32_t t, std::uint32_t sp) noexcept {
+  return CameraSuccessor<Scn>::direction_pdf(scene, pool.segments[t].y, -pool.last_direction[t], pool.first_direction[sp]);
 }
 /// p_w(-s' | u) of the light predecessor from u's start x_u (solid angle at x_u).
-template <class B, Real T, Spectrum S>
-[[nodiscard]] T light_technique_pdf(const B& bsdf, const Pool<T, S>& pool, std::uint32_t u, std::uint32_t sp) noexcept {
-  return bsdf.pdf(BsdfQuery<T>{pool.segments[u].x, -pool.last_direction[sp], pool.first_direction[u], Transport::importance});
+template <LightSampledScene Scn>
+[[nodiscard]] typename Scn::Scalar light_technique_pdf(const Scn& scene, const Pool<typename Scn::Scalar, typename Scn::Spectrum>& pool,
+                                                       std::uint32_t u, std::uint32_t sp) noexcept {
+  return LightPredecessor<Scn>::direction_pdf(scene, pool.segments[u].x, -pool.last_direction[sp], pool.first_direction[u]);
 }
 /// Solid angle at the technique point to the segment's measure: area at y (plain segments);
 /// chains are measured in solid angle at x already.
-template <Real T, Spectrum S>
-[[nodiscard]] T camera_measure(const Pool<T, S>& pool, std::size_t s) noexcept {
-  return (pool.flags[s] & chain_segment) ? T(1) : solid_angle_to_area(T(1), pool.segments[s].x, pool.segments[s].y);
+template <LightSampledScene Scn>
+[[nodiscard]] typename Scn::Scalar camera_measure(const Pool<typename Scn::Scalar, typename Scn::Spectrum>& pool, std::size_t s) noexcept {
+  using T = typename Scn::Scalar;
+  return (pool.flags[s] & chain_segment) ? T(1) : CameraSuccessor<Scn>::area_jacobian(pool.segments[s]);
 }
 /// Area x solid angle at y (light techniques) to the segment's measure: area at x for a plain
 /// segment; for a chain, area x solid angle at x, through mirrors by the conservation of
 /// etendue, cos_y dA_y dw_y = cos_x dA_x dw_x: cos_x / cos_y. (With Fresnel-selected delta
 /// reflections both sides pick the same lobe with the same probability, so the selection
 /// factors, left out of every density of a chain, agree.)
-template <Real T, Spectrum S>
-[[nodiscard]] T light_measure(const Pool<T, S>& pool, std::size_t s) noexcept {
-  if (!(pool.flags[s] & chain_segment)) return solid_angle_to_area(T(1), pool.segments[s].y, pool.segments[s].x);
+template <LightSampledScene Scn>
+[[nodiscard]] typename Scn::Scalar light_measure(const Pool<typename Scn::Scalar, typename Scn::Spectrum>& pool, std::size_t s) noexcept {
+  using T = typename Scn::Scalar;
+  if (!(pool.flags[s] & chain_segment)) return LightPredecessor<Scn>::area_jacobian(pool.segments[s]);
   const T cos_y = endpoint_cosine(pool.segments[s].y, pool.last_direction[s]);
   return cos_y > T(0) ? endpoint_cosine(pool.segments[s].x, pool.first_direction[s]) / cos_y : T(0);
 }
@@ -52,11 +69,10 @@ template <LightSampledScene Scn>
   const bool light_chain = (f & chain_segment) && s.y.kind == PointKind::surface && light_reachable(pool, i);
   if (light_paths == 0 || s.x.kind != PointKind::surface || ((f & chain_segment) && !light_chain)) return T(0);
   const Vec3<T> leaving = s.y.kind == PointKind::direction ? s.x.position : -pool.last_direction[i];
-  const EmissionPdf<T> e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{s.y, leaving});
-  const T p_light = e.position * e.direction;
+  const T p_light = LightStartSampler<Scn>::emission_pdf(scene, s.y, leaving);
   if (!(p_light > T(0))) return T(0);
   return T(light_paths) * p_light *
-         (s.y.kind == PointKind::direction ? endpoint_cosine(s.x, pool.last_direction[i]) : light_measure(pool, i));
+         ((f & chain_segment) ? light_measure<Scn>(pool, i) : LightStartSampler<Scn>::area_jacobian(s, pool.last_direction[i]));
 }
 
 /// n_p p_W(s) (N29) of a sensor segment: the sensor-start technique, one draw per pixel.
@@ -65,8 +81,8 @@ template <LightSampledScene Scn>
                                                   std::size_t i) {
   using T = typename Scn::Scalar;
   const Segment<T>& s = pool.segments[i];
-  const SensorPdf<T> p = scene.sensor().pdf(SensorQuery<T>{s.x, pool.first_direction[i]});
-  return p.position * p.direction * ((pool.flags[i] & chain_segment) ? T(1) : solid_angle_to_area(T(1), s.x, s.y));
+  return SensorStartSampler<Scn>::ray_pdf(scene, s.x, pool.first_direction[i]) *
+         ((pool.flags[i] & chain_segment) ? T(1) : SensorStartSampler<Scn>::area_jacobian(s));
 }
 
 /// p_L(y | x) of a next-event segment from x (N34, the light-end bridge), in y's measure (a
