@@ -3,6 +3,7 @@
 // runtime checks that the archetypes (archetypes.hpp) work with the library's functions.
 #include <cstdint>
 #include <optional>
+#include <segpath/algorithms/filtering/techniques.hpp>
 #include <segpath/integrand/contribution.hpp>
 #include <segpath/core/rng.hpp>
 #include <segpath/core/segment.hpp>
@@ -760,6 +761,30 @@ using UnoccludedPdfWithoutScene = Model<TechniqueIs, IsDirac, Sample, Pdf, Unocc
 static_assert(!SegmentSampler<UnoccludedPdfWithoutScene, Scn> &&
               !detail::HasUnoccludedPdf<UnoccludedPdfWithoutScene, Scn> &&
               failures<UnoccludedPdfWithoutScene> == 1);
+
+// UnconditionalSegmentSampler (algorithms/filtering/techniques.hpp), what a user's technique in
+// segment filtering's set must be: 1. a SegmentSampler, 2. whose Technique is
+// default-constructible (unconditional), 3. without a Dirac part.
+struct TechNeedsArgument {
+  explicit TechNeedsArgument(int) {}
+};
+template <class Tq, bool Dirac>
+struct Candidate {
+  using Technique = Tq;
+  static constexpr bool is_dirac = Dirac;
+  template <class Sc>
+  std::optional<SegmentSample<typename Sc::Spectrum>> sample(const Sc&, const Tq&, Pcg32&) const noexcept;
+  template <class Sc>
+  typename Sc::Scalar pdf(const Sc&, const Tq&, const Segment<typename Sc::Scalar>&) const noexcept;
+  template <class Sc>
+  typename Sc::Scalar unoccluded_pdf(const Sc&, const Tq&, const Segment<typename Sc::Scalar>&) const noexcept;
+};
+static_assert(UnconditionalSegmentSampler<Candidate<Tech, false>, Scn> && UnconditionalSegmentSampler<Ok, Scn>);
+static_assert(UnconditionalSegmentSampler<arch::SegmentSamplerArchetype, Scn>);
+static_assert(!UnconditionalSegmentSampler<NoPdf, Scn> && !UnconditionalSegmentSampler<NoUnoccludedPdf, Scn>);  // 1.
+static_assert(SegmentSampler<Candidate<TechNeedsArgument, false>, Scn> &&
+              !UnconditionalSegmentSampler<Candidate<TechNeedsArgument, false>, Scn>);  // 2.
+static_assert(SegmentSampler<Candidate<Tech, true>, Scn> && !UnconditionalSegmentSampler<Candidate<Tech, true>, Scn>);  // 3.
 }  // namespace sampler
 
 // ---------------------------------------------------------------------------------------
