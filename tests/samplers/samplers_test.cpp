@@ -4,6 +4,7 @@
 // and BSDF-directed by Monte Carlo against the acceptance rate).
 #include <segpath/kernels/dirac.hpp>
 #include <segpath/kernels/disk.hpp>
+#include <segpath/lights/directional_light.hpp>
 #include <segpath/samplers/approximate.hpp>
 #include <segpath/samplers/bridge.hpp>
 #include <segpath/samplers/bsdf_directed.hpp>
@@ -130,6 +131,39 @@ TEMPLATE_TEST_CASE("ray-traced and light-start samplers with escapes and occlude
                              4000, 7) > 100);
   const auto le_g = [&](const Segment<T>& s) { return emission_factor(scene, s) * geometry_term(s); };
   CHECK(check_consistency<T>(LightStartSampler<Scn>{}, scene, {}, le_g, 4000, 8) > 100);
+}
+
+/// The disk-lit plane under a sun instead: its disk covers the part of the square around
+/// `centre`, off the line through the world origin along the sun's direction.
+template <class T>
+class SunLitPlane : public st::DiskLitPlane<T> {
+ public:
+  SunLitPlane(const Vec3<T>& direction, const Vec3<T>& centre, T radius)
+      : st::DiskLitPlane<T>(st::DiskLitPlaneParameters<T>{}, {Vec2<T>(0, 0)}), sun_(direction, T(2), centre, radius) {}
+  [[nodiscard]] const DirectionalLight<T>& emitter() const noexcept { return sun_; }
+
+ private:
+  DirectionalLight<T> sun_;
+};
+
+// A distant light end: the emitter reads a point of the ray, x, not the direction (which, read
+// as a point, put the ray through the world origin and missed the sun's disk off that line).
+TEMPLATE_TEST_CASE("light-start sampler from a sun whose disk is off the world origin", "[samplers]", float, double) {
+  using T = TestType;
+  using Scn = SunLitPlane<T>;
+  const Scn scene(glm::normalize(Vec3<T>(T(0.2), T(0.1), -1)), Vec3<T>(T(1.2), T(1.2), 0), T(0.4));
+  const LightStartSampler<Scn> smp;
+  Pcg32 rng(11, 0);
+  int hits = 0;
+  for (int i = 0; i < 200; ++i) {
+    const auto s = smp.sample(scene, {}, rng);
+    if (!s) continue;
+    ++hits;
+    CHECK(s->segment.y.kind == PointKind::direction);
+    CHECK(smp.unoccluded_pdf(scene, {}, s->segment) == Approx(s->pdf).epsilon(1e-4));
+    CHECK(smp.pdf(scene, {}, s->segment) == Approx(s->pdf).epsilon(1e-4));
+  }
+  CHECK(hits > 100);
 }
 
 TEMPLATE_TEST_CASE("light-start sampler from a point light (PointKind::point end)", "[samplers]", float, double) {

@@ -76,7 +76,8 @@ class LightStartSampler {
     const bool distant = s.y.kind == PointKind::direction;
     if (!distant && !(s.length_squared() > T(0))) return T(0);
     const Vec3<T> direction = s.direction();
-    const T pdf_emission = emission_pdf(scene, s.y, -direction);
+    // A distant end's emitter reads a point of the ray (concepts/emitter.hpp): x.
+    const T pdf_emission = emission_pdf(scene, s.y, distant ? s.x.position : -direction);
     if (!(pdf_emission > T(0))) return T(0);
     return distant ? pdf_emission * endpoint_cosine(s.x, direction) : solid_angle_to_area(pdf_emission, s.y, s.x);
   }
