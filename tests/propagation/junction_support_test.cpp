@@ -23,10 +23,11 @@ namespace {
 // ---------------------------------------------------------------------------------------
 // The archetype: the documented members and nothing else, groups listed explicitly.
 
-template <bool Factorisable>
+template <bool Factorisable, bool SingleStart = true>
 struct ListSupport {
   using Scalar = double;
   static constexpr bool factorisable = Factorisable;
+  static constexpr bool single_start = SingleStart;
   std::vector<SlotRange> ending, starting;  // per group
   std::vector<double> kernels;               // per group
   std::vector<std::uint32_t> ending_segment, starting_segment, slot_of;
@@ -43,9 +44,9 @@ struct ListSupport {
 };
 
 /// The archetype holding the same groups as `support`.
-template <bool Factorisable, JunctionSupport J>
-ListSupport<Factorisable> copy_of(const J& support) {
-  ListSupport<Factorisable> list;
+template <bool Factorisable, bool SingleStart, JunctionSupport J>
+ListSupport<Factorisable, SingleStart> copy_of(const J& support) {
+  ListSupport<Factorisable, SingleStart> list;
   for (std::size_t g = 0; g < support.group_count(); ++g) {
     list.ending.push_back(support.ending_slots(g));
     list.starting.push_back(support.starting_slots(g));
@@ -61,7 +62,8 @@ ListSupport<Factorisable> copy_of(const J& support) {
 static_assert(JunctionSupport<Clustering<float>> && JunctionSupport<Clustering<double>>);
 static_assert(JunctionSupport<DiskJunctions<float>> && JunctionSupport<DiskJunctions<double>>);
 static_assert(Clustering<double>::factorisable && !DiskJunctions<double>::factorisable);
-static_assert(JunctionSupport<ListSupport<false>> && JunctionSupport<ListSupport<true>>);
+static_assert(Clustering<double>::single_start && !DiskJunctions<double>::single_start);
+static_assert(JunctionSupport<ListSupport<false>> && JunctionSupport<ListSupport<true, false>>);
 static_assert(!JunctionSupport<int> && !JunctionSupport<std::vector<std::uint32_t>>);
 
 // ---------------------------------------------------------------------------------------
@@ -80,6 +82,12 @@ struct Factorisable {
 };
 struct FactorisableNotConstant {
   static inline bool factorisable = false;
+};
+struct SingleStart {
+  static constexpr bool single_start = true;
+};
+struct SingleStartUnrelated {
+  static constexpr Unrelated single_start{};
 };
 struct Counts {
   std::size_t group_count() const noexcept;
@@ -124,43 +132,49 @@ struct SlotOfUnrelated {
 };
 
 template <class J>
-constexpr int failures = !detail::HasSupportScalar<J> + !detail::HasFactorisable<J> + !detail::HasGroups<J> +
+constexpr int failures = !detail::HasSupportScalar<J> + !detail::HasFactorisable<J> + !detail::HasSingleStart<J> + !detail::HasGroups<J> +
                          !detail::HasGroupKernel<J> + !detail::HasSlotSegments<J> + !detail::HasEndingSlotOf<J>;
 
-using Ok = Model<ScalarIs<double>, Factorisable, Counts, Slots, Kernel, Segments, SlotOf>;
+using Ok = Model<ScalarIs<double>, Factorisable, SingleStart, Counts, Slots, Kernel, Segments, SlotOf>;
 static_assert(JunctionSupport<Ok> && failures<Ok> == 0);
 
-using NoScalar = Model<Factorisable, Counts, Slots, Kernel, Segments, SlotOf>;
+using NoScalar = Model<Factorisable, SingleStart, Counts, Slots, Kernel, Segments, SlotOf>;
 static_assert(!JunctionSupport<NoScalar> && !detail::HasSupportScalar<NoScalar> && !detail::HasGroupKernel<NoScalar>);
-using IntScalar = Model<ScalarIs<int>, Factorisable, Counts, Slots, Kernel, Segments, SlotOf>;
+using IntScalar = Model<ScalarIs<int>, Factorisable, SingleStart, Counts, Slots, Kernel, Segments, SlotOf>;
 static_assert(!JunctionSupport<IntScalar> && !detail::HasSupportScalar<IntScalar>);
 
-using NoFactorisable = Model<ScalarIs<double>, Counts, Slots, Kernel, Segments, SlotOf>;
+using NoFactorisable = Model<ScalarIs<double>, SingleStart, Counts, Slots, Kernel, Segments, SlotOf>;
 static_assert(!JunctionSupport<NoFactorisable> && !detail::HasFactorisable<NoFactorisable> && failures<NoFactorisable> == 1);
-using RuntimeFactorisable = Model<ScalarIs<double>, FactorisableNotConstant, Counts, Slots, Kernel, Segments, SlotOf>;
+using RuntimeFactorisable = Model<ScalarIs<double>, FactorisableNotConstant, SingleStart, Counts, Slots, Kernel, Segments, SlotOf>;
 static_assert(!JunctionSupport<RuntimeFactorisable> && !detail::HasFactorisable<RuntimeFactorisable> &&
               failures<RuntimeFactorisable> == 1);
 
-using NoCounts = Model<ScalarIs<double>, Factorisable, NoSegmentCount, Slots, Kernel, Segments, SlotOf>;
+using NoSingleStart = Model<ScalarIs<double>, Factorisable, Counts, Slots, Kernel, Segments, SlotOf>;
+static_assert(!JunctionSupport<NoSingleStart> && !detail::HasSingleStart<NoSingleStart> && failures<NoSingleStart> == 1);
+using SingleStartMistyped = Model<ScalarIs<double>, Factorisable, SingleStartUnrelated, Counts, Slots, Kernel, Segments, SlotOf>;
+static_assert(!JunctionSupport<SingleStartMistyped> && !detail::HasSingleStart<SingleStartMistyped> &&
+              failures<SingleStartMistyped> == 1);
+
+using NoCounts = Model<ScalarIs<double>, Factorisable, SingleStart, NoSegmentCount, Slots, Kernel, Segments, SlotOf>;
 static_assert(!JunctionSupport<NoCounts> && !detail::HasGroups<NoCounts> && failures<NoCounts> == 1);
-using NoStarting = Model<ScalarIs<double>, Factorisable, Counts, NoStartingSlots, Kernel, Segments, SlotOf>;
+using NoStarting = Model<ScalarIs<double>, Factorisable, SingleStart, Counts, NoStartingSlots, Kernel, Segments, SlotOf>;
 static_assert(!JunctionSupport<NoStarting> && !detail::HasGroups<NoStarting> && failures<NoStarting> == 1);
-using EndingMistyped = Model<ScalarIs<double>, Factorisable, Counts, EndingSlotsMistyped, Kernel, Segments, SlotOf>;
+using EndingMistyped = Model<ScalarIs<double>, Factorisable, SingleStart, Counts, EndingSlotsMistyped, Kernel, Segments, SlotOf>;
 static_assert(!JunctionSupport<EndingMistyped> && !detail::HasGroups<EndingMistyped> && failures<EndingMistyped> == 1);
 
-using NoKernel = Model<ScalarIs<double>, Factorisable, Counts, Slots, Segments, SlotOf>;
+using NoKernel = Model<ScalarIs<double>, Factorisable, SingleStart, Counts, Slots, Segments, SlotOf>;
 static_assert(!JunctionSupport<NoKernel> && !detail::HasGroupKernel<NoKernel> && failures<NoKernel> == 1);
-using KernelMistyped = Model<ScalarIs<double>, Factorisable, Counts, Slots, KernelUnrelated, Segments, SlotOf>;
+using KernelMistyped = Model<ScalarIs<double>, Factorisable, SingleStart, Counts, Slots, KernelUnrelated, Segments, SlotOf>;
 static_assert(!JunctionSupport<KernelMistyped> && !detail::HasGroupKernel<KernelMistyped> && failures<KernelMistyped> == 1);
 
-using NoEnding = Model<ScalarIs<double>, Factorisable, Counts, Slots, Kernel, NoEndingSegments, SlotOf>;
+using NoEnding = Model<ScalarIs<double>, Factorisable, SingleStart, Counts, Slots, Kernel, NoEndingSegments, SlotOf>;
 static_assert(!JunctionSupport<NoEnding> && !detail::HasSlotSegments<NoEnding> && failures<NoEnding> == 1);
-using ListStarting = Model<ScalarIs<double>, Factorisable, Counts, Slots, Kernel, StartingSegmentsList, SlotOf>;
+using ListStarting = Model<ScalarIs<double>, Factorisable, SingleStart, Counts, Slots, Kernel, StartingSegmentsList, SlotOf>;
 static_assert(!JunctionSupport<ListStarting> && !detail::HasSlotSegments<ListStarting> && failures<ListStarting> == 1);
 
-using NoSlotOf = Model<ScalarIs<double>, Factorisable, Counts, Slots, Kernel, Segments>;
+using NoSlotOf = Model<ScalarIs<double>, Factorisable, SingleStart, Counts, Slots, Kernel, Segments>;
 static_assert(!JunctionSupport<NoSlotOf> && !detail::HasEndingSlotOf<NoSlotOf> && failures<NoSlotOf> == 1);
-using SlotOfMistyped = Model<ScalarIs<double>, Factorisable, Counts, Slots, Kernel, Segments, SlotOfUnrelated>;
+using SlotOfMistyped = Model<ScalarIs<double>, Factorisable, SingleStart, Counts, Slots, Kernel, Segments, SlotOfUnrelated>;
 static_assert(!JunctionSupport<SlotOfMistyped> && !detail::HasEndingSlotOf<SlotOfMistyped> && failures<SlotOfMistyped> == 1);
 
 // ---------------------------------------------------------------------------------------
@@ -255,8 +269,9 @@ TEST_CASE("both propagations run on the archetype and give the support's numbers
     const ConditionedInputs<double, decltype(link_of), decltype(light_of)> conditioned{
         emitted, geometry, density, light, terms, light_technique, flags, link_of, light_of};
     const int depth = 1 + int(rng.next_u32() % 4);
-    auto compare = [&]<class J>(const J& support) {
-      const auto list = copy_of<J::factorisable>(support);
+    // The archetype with the support's groups, its starts kept per slot or per segment.
+    auto compare = [&]<bool SingleStart, class J>(const J& support) {
+      const auto list = copy_of<J::factorisable, SingleStart>(support);
       std::vector<double> a, b, scratch;
       propagate(PropagationInputs<double, decltype(link_of), J>{support, emitted, geometry, link_of}, depth, a, scratch);
       propagate(PropagationInputs<double, decltype(link_of), decltype(list)>{list, emitted, geometry, link_of}, depth, b, scratch,
@@ -268,10 +283,12 @@ TEST_CASE("both propagations run on the archetype and give the support's numbers
     };
     Clustering<double> clustering;
     clustering.build(VoxelGrid<double>(1.0), segments);
-    compare(clustering);
+    compare.template operator()<true>(clustering);
+    compare.template operator()<false>(clustering);
     DiskJunctions<double> junctions;
     junctions.build(0.7, std::span<const Segment<double>>(segments));
-    compare(junctions);
+    compare.template operator()<true>(junctions);
+    compare.template operator()<false>(junctions);
   }
 }
 

@@ -109,6 +109,8 @@ class Clustering {
   using Scalar = T;
   /// A cluster's junction sums may factorise (PropagationInputs::factorised).
   static constexpr bool factorisable = true;
+  /// A segment's x end is in at most one cluster.
+  static constexpr bool single_start = true;
 
   Clustering() = default;
 

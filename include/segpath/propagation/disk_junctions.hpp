@@ -38,6 +38,8 @@ class DiskJunctions {
   using Scalar = T;
   /// One end per group: nothing to factorise.
   static constexpr bool factorisable = false;
+  /// A segment starts in every disk that holds its x end.
+  static constexpr bool single_start = false;
 
   DiskJunctions() = default;
 

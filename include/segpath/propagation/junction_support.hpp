@@ -2,7 +2,7 @@
 // step 2), as propagation reads it. Voxel clusters (propagation/clustering.hpp) and disks
 // (propagation/disk_junctions.hpp) both model it, so each weighting's propagation is written
 // once. Customization points (members of the support type J):
-//   J::Scalar, J::factorisable, group_count(), segment_count(), ending_slots(g),
+//   J::Scalar, J::factorisable, J::single_start, group_count(), segment_count(), ending_slots(g),
 //   starting_slots(g), kernel(g), ending_segments(), starting_segments(), ending_slot_of(s).
 #pragma once
 
@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <ranges>
+#include <utility>
 
 namespace segpath {
 
@@ -35,6 +36,12 @@ template <class J>
 concept HasFactorisable = requires {
   { J::factorisable } -> std::convertible_to<bool>;
   typename std::bool_constant<J::factorisable>;  // a constant expression
+};
+
+template <class J>
+concept HasSingleStart = requires {
+  { J::single_start } -> std::convertible_to<bool>;
+  typename std::bool_constant<J::single_start>;  // a constant expression
 };
 
 template <class J>
@@ -73,19 +80,57 @@ concept HasEndingSlotOf = requires(const J& j, std::uint32_t s) {
 ///  2. J::factorisable (a constant): whether a group may hold several ending slots, so that
 ///     propagation can sum a group's starts once for all its ends where the caller's link
 ///     factorises (voxel clusters); false: it never factorises anything (disks: one end each);
-///  3. group_count(), segment_count(); ending_slots(g) and starting_slots(g), g <
+///  3. J::single_start (a constant): whether every segment has at most one starting slot
+///     (clusters: its x end is in one cluster). Propagation keeps what it reads of a start
+///     per starting slot, in order, where it is; per segment (read at random) where not, so
+///     that its memory stays O(#segments) when a segment starts in many groups (disks);
+///  4. group_count(), segment_count(); ending_slots(g) and starting_slots(g), g <
 ///     group_count(): the SlotRange of group g's ends and starts;
-///  4. kernel(g): the kernel value K_g of every junction of group g (N19);
-///  5. ending_segments()[i], starting_segments()[j]: the segment of ending slot i and of
+///  5. kernel(g): the kernel value K_g of every junction of group g (N19);
+///  6. ending_segments()[i], starting_segments()[j]: the segment of ending slot i and of
 ///     starting slot j;
-///  6. ending_slot_of(s): the ending slot of segment s, or no_cluster.
+///  7. ending_slot_of(s): the ending slot of segment s, or no_cluster.
 /// Semantics: every ending slot of g joins every starting slot of g whose segment is not its
 /// own (a segment never joins itself), with kernel K_g; nothing else joins. Each segment has
 /// at most one ending slot (ending_slot_of inverts ending_segments()) and may have several
 /// starting slots (one per group it starts in). Propagation sums a group's starts in increasing
 /// slot order: that order is part of the result.
 template <class J>
-concept JunctionSupport = detail::HasSupportScalar<J> && detail::HasFactorisable<J> && detail::HasGroups<J> &&
+concept JunctionSupport = detail::HasSupportScalar<J> && detail::HasFactorisable<J> && detail::HasSingleStart<J> && detail::HasGroups<J> &&
                           detail::HasGroupKernel<J> && detail::HasSlotSegments<J> && detail::HasEndingSlotOf<J>;
+
+/// Where propagation keeps what it reads of a start (J::single_start): one record per starting
+/// slot, the slot itself, where every segment starts at most once (read in slot order); else
+/// one per segment, starting slot j reading the record of its segment.
+template <JunctionSupport J>
+class StartRecords {
+ public:
+  explicit StartRecords(const J& support)
+      : starting_(std::views::all(support.starting_segments())),
+        count_(J::single_start ? std::size_t(std::ranges::size(starting_)) : support.segment_count()) {}
+
+  /// The number of records.
+  [[nodiscard]] std::size_t size() const noexcept { return count_; }
+  /// The record of starting slot j.
+  [[nodiscard]] std::uint32_t operator()(std::uint32_t j) const noexcept {
+    if constexpr (J::single_start) {
+      return j;
+    } else {
+      return starting_[j];
+    }
+  }
+  /// The segment of record r.
+  [[nodiscard]] std::uint32_t segment(std::size_t r) const noexcept {
+    if constexpr (J::single_start) {
+      return starting_[r];
+    } else {
+      return std::uint32_t(r);
+    }
+  }
+
+ private:
+  decltype(std::views::all(std::declval<const J&>().starting_segments())) starting_;
+  std::size_t count_;
+};
 
 }  // namespace segpath

@@ -262,11 +262,11 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 /// weights, s's own included: a sensor segment's pixel value is W G(s) weighted[s]). Parallel
 /// over groups; each segment's values are written by the one group holding its y end,
 /// junctions summed in increasing starting slot order, so the result does not depend on the
-/// number of threads. Everything is kept per slot in group order, so an iteration reads the
-/// values of each s' at random once per starting slot and the rest in order. Memory: three
-/// ConditionedValues (emission, two iterations) and 16 bytes per ending slot, one
-/// ConditionedValues and 16 bytes (float) per starting slot: O(#segments) over clusters,
-/// O(#junctions) over disks.
+/// number of threads. Over clusters everything is kept per slot in group order, so an iteration
+/// reads the values of each s' at random once per starting slot and the rest in order; over
+/// disks what is read of a start is kept per segment and read at random (StartRecords).
+/// Memory: four ConditionedValues (emission, two iterations, start) and 32 bytes (float) per
+/// segment.
 ///
 /// `factorised[g]` (optional, one per group; J::factorisable supports only) marks groups where
 /// link(s, s') = diffuse[s] for every s ending and s' starting there and light_pair(s, s') is
@@ -293,12 +293,13 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
   const bool has_factorisation = !factorised.empty();
   const auto starting_segment = support.starting_segments();
   const auto ending_segment = support.ending_segments();
-  const std::size_t starting_slots = std::ranges::size(starting_segment), ending_slots = std::ranges::size(ending_segment);
-  // Everything per slot, in group order: an iteration reads the values of s' at random once per
-  // starting slot and the rest in order.
+  const std::size_t ending_slots = std::ranges::size(ending_segment);
+  const StartRecords<J> record(support);
+  // Everything per slot (or start record), in group order: an iteration reads the values of s'
+  // at random once per record and the rest in order.
   std::vector<detail::ConditionedEnd<T>> end(ending_slots);
-  std::vector<ConditionedValues<S>> emission(ending_slots), current, next(ending_slots), starting_values(starting_slots);
-  std::vector<detail::ConditionedStart<T>> start(starting_slots);
+  std::vector<ConditionedValues<S>> emission(ending_slots), current, next(ending_slots), starting_values(record.size());
+  std::vector<detail::ConditionedStart<T>> start(record.size());
   std::vector<S> ending_diffuse(has_factorisation ? ending_slots : 0);
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     const std::uint32_t s = ending_segment[i];
@@ -306,9 +307,9 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
     emission[i] = detail::conditioned_emission(in, s);
     if (has_factorisation) ending_diffuse[i] = diffuse[s];
   });
-  for_blocks(starting_slots, parallel_for, [&](std::size_t j) {
-    const std::uint32_t sp = starting_segment[j];
-    start[j] = {in.geometry[sp], detail::conditioned_forced_weight(in, sp), support.ending_slot_of(sp), in.flags[sp]};
+  for_blocks(record.size(), parallel_for, [&](std::size_t r) {
+    const std::uint32_t sp = record.segment(r);
+    start[r] = {in.geometry[sp], detail::conditioned_forced_weight(in, sp), support.ending_slot_of(sp), in.flags[sp]};
   });
   // Classes of s' in a factorised group: 0 not a potential light technique, 1 potential,
   // 2 light technique sample. There q_l(s | s') is the same for every potential s', so each
@@ -323,7 +324,8 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
         const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
         std::uint32_t representative = no_cluster;
         for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-          if (start[j].geometry > T(0) && (start[j].flags & conditioned_potential)) representative = starting_segment[j];
+          if (start[record(j)].geometry > T(0) && (start[record(j)].flags & conditioned_potential))
+            representative = starting_segment[j];
         for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
           const T ql = representative == no_cluster ? T(0) : T(in.light_pair(ending_segment[i], representative));
           const S transfer = ending_diffuse[i] * support.kernel(g);
@@ -337,7 +339,7 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
   // The junction of ending slot i and starting slot j of a general group with kernel K.
   auto junction = [&](std::uint32_t i, std::uint32_t j, T kernel) -> Junction {
     const std::uint32_t s = ending_segment[i], sp = starting_segment[j];
-    const detail::ConditionedStart<T>& st = start[j];
+    const detail::ConditionedStart<T>& st = start[record(j)];
     S f;
     if constexpr (std::is_invocable_v<const Link&, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>) {
       f = in.link(s, sp, i, j);
@@ -355,7 +357,10 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
     return detail::conditioned_coefficients(end[i], st.flags, st.forced_weight, S(f * (kernel * st.geometry)), ql);
   };
   // s -> s' is a junction: s' carries weight and is not s.
-  auto joins = [&](std::uint32_t i, std::uint32_t j) { return start[j].geometry > T(0) && start[j].source != i; };
+  auto joins = [&](std::uint32_t i, std::uint32_t j) {
+    const detail::ConditionedStart<T>& st = start[record(j)];
+    return st.geometry > T(0) && st.source != i;
+  };
   // The junctions of the general groups that fit the budget, built once.
   PairTable<Junction> table;
   table.build(
@@ -364,9 +369,9 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
       parallel_for);
   current = emission;
   for (int k = 0; k < iterations; ++k) {
-    for_blocks(starting_slots, parallel_for, [&](std::size_t j) {
-      const std::uint32_t i = start[j].source;
-      starting_values[j] = i == no_cluster ? detail::conditioned_emission(in, starting_segment[j]) : current[i];
+    for_blocks(record.size(), parallel_for, [&](std::size_t r) {
+      const std::uint32_t i = start[r].source;
+      starting_values[r] = i == no_cluster ? detail::conditioned_emission(in, record.segment(r)) : current[i];
     });
     detail::for_groups(support, parallel_for, [&](std::size_t g) {
       const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
@@ -376,12 +381,13 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
           auto class_sums = [&](std::uint32_t skip) {
             std::array<ConditionedValues<S>, 3> sum{};
             for (std::uint32_t j = starting.begin; j < starting.end; ++j) {
-              const detail::ConditionedStart<T>& st = start[j];
+              const detail::ConditionedStart<T>& st = start[record(j)];
               if (!(st.geometry > T(0)) || j == skip) continue;
               const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
+              const ConditionedValues<S>& v = starting_values[record(j)];
               for (int e = 0; e < 2; ++e) {
-                sum[k_class].w[e] += starting_values[j].w[e] * st.geometry;
-                sum[k_class].u[e] += starting_values[j].u[e] * (st.geometry * st.forced_weight);
+                sum[k_class].w[e] += v.w[e] * st.geometry;
+                sum[k_class].u[e] += v.u[e] * (st.geometry * st.forced_weight);
               }
             }
             return sum;
@@ -396,7 +402,7 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
           // A segment starting here too does not join itself (propagation/propagate.hpp): its
           // sums again without its own start, summed afresh (no cancellation of a dominant term).
           for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-            if (ending.contains(start[j].source)) next[start[j].source] = values_of(start[j].source, class_sums(j));
+            if (const std::uint32_t i = start[record(j)].source; ending.contains(i)) next[i] = values_of(i, class_sums(j));
           return;
         }
       }
@@ -405,10 +411,10 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
         ConditionedValues<S> acc = emission[i];
         if (const Junction* row = table.row(i, starting.begin)) {
           for (std::uint32_t j = starting.begin; j < starting.end; ++j, ++row)
-            if (joins(i, j)) detail::apply_junction(*row, starting_values[j], acc);
+            if (joins(i, j)) detail::apply_junction(*row, starting_values[record(j)], acc);
         } else {
           for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-            if (joins(i, j)) detail::apply_junction(junction(i, j, kernel), starting_values[j], acc);
+            if (joins(i, j)) detail::apply_junction(junction(i, j, kernel), starting_values[record(j)], acc);
         }
         next[i] = acc;
       }

@@ -5,11 +5,12 @@
 // Jacobi style (in() is gathered before each sweep), so after k iterations every path of up to
 // k + 1 segments is counted once. Cost per iteration: sum over groups of (#ending x
 // #starting) link evaluations, or (#ending + #starting) for factorised clusters. Memory
-// traffic: everything is kept per slot, in group order, so an iteration reads and writes in
-// order but for in(s'), one random read per starting slot; out of cache it is bound by memory
-// bandwidth and its time per segment stays flat (bench/propagation). Per pool, the inputs are
-// gathered into slot order once. Memory O(#slots): O(#segments) over clusters, O(#junctions)
-// over disks (a segment has one starting slot per disk holding its x end).
+// traffic: over clusters everything is kept per slot, in group order, so an iteration reads
+// and writes in order but for in(s'), one random read per starting slot; out of cache it is
+// bound by memory bandwidth and its time per segment stays flat (bench/propagation). Over disks
+// (a segment starts in every disk holding its x end) what is read of a start is kept per
+// segment and read at random (StartRecords). Per pool, the inputs are gathered once. Memory
+// O(#segments).
 //
 // A segment never joins itself (s' != s above; SPEC 1.8 step 5 writes the sum over every s').
 // A chain that uses one sample twice is not a path sample: the expectation of the pooled sum is
@@ -69,14 +70,15 @@ using DiskPropagationInputs = PropagationInputs<S, Link, DiskJunctions<spectrum_
 template <Spectrum S>
 struct PropagationWorkspace {
   using T = spectrum_scalar_t<S>;
-  // Per starting slot j, segment s': the ending slot in(s') is read from (no_cluster: s' ends in
-  // no group and in(s') = L_e(s')), G w(s'), L_e(s') G w(s'), and in(s') G w(s').
+  // Per start record (StartRecords: the starting slot, or the segment), segment s': the ending
+  // slot in(s') is read from (no_cluster: s' ends in no group and in(s') = L_e(s')), G w(s'),
+  // L_e(s') G w(s'), and in(s') G w(s').
   std::vector<std::uint32_t> source;
   std::vector<T> starting_weight;
   std::vector<S> starting_emitted, starting_value;
   // Per ending slot i, segment s: L_e(s), diffuse(s) (where factorising) and out(s).
   std::vector<S> ending_emitted, ending_diffuse, out;
-  /// At most, per slot.
+  /// At most.
   static constexpr std::size_t bytes_per_segment = sizeof(std::uint32_t) + sizeof(T) + 5 * sizeof(S);
   [[nodiscard]] std::size_t bytes() const noexcept {
     return source.capacity() * sizeof(std::uint32_t) + starting_weight.capacity() * sizeof(T) +
@@ -115,7 +117,7 @@ void check_support(const J& support, std::size_t n, std::size_t factorised, std:
 }  // namespace detail
 
 /// The per-pool half of propagate(): gathers emitted radiance, G w and the diffuse factors
-/// into slot order (one random read each per slot).
+/// into slot (or start record) order, one random read each per slot.
 template <Spectrum S, class Link, JunctionSupport J, ParallelFor P = SerialFor>
 void prepare_propagation(const PropagationInputs<S, Link, J>& in, PropagationWorkspace<S>& workspace,
                          const P& parallel_for = {}) {
@@ -124,22 +126,22 @@ void prepare_propagation(const PropagationInputs<S, Link, J>& in, PropagationWor
     throw std::invalid_argument("segpath::propagate: emitted and weighted_geometry differ in size");
   detail::check_support(in.support, n, in.factorised.size(), in.diffuse.size(), "segpath::propagate");
   const bool has_factorisation = !in.factorised.empty();
-  const auto starting_segment = in.support.starting_segments();
+  const StartRecords<J> record(in.support);
   const auto ending_segment = in.support.ending_segments();
-  const std::size_t starting_slots = std::ranges::size(starting_segment), ending_slots = std::ranges::size(ending_segment);
+  const std::size_t ending_slots = std::ranges::size(ending_segment);
   auto& w = workspace;
-  w.source.resize(starting_slots);
-  w.starting_weight.resize(starting_slots);
-  w.starting_emitted.resize(starting_slots);
-  w.starting_value.resize(starting_slots);
+  w.source.resize(record.size());
+  w.starting_weight.resize(record.size());
+  w.starting_emitted.resize(record.size());
+  w.starting_value.resize(record.size());
   w.ending_emitted.resize(ending_slots);
   w.ending_diffuse.resize(has_factorisation ? ending_slots : 0);
   w.out.resize(ending_slots);
-  for_blocks(starting_slots, parallel_for, [&](std::size_t j) {
-    const std::uint32_t sp = starting_segment[j];
-    w.source[j] = in.support.ending_slot_of(sp);
-    w.starting_weight[j] = in.weighted_geometry[sp];
-    w.starting_emitted[j] = in.emitted[sp] * in.weighted_geometry[sp];
+  for_blocks(record.size(), parallel_for, [&](std::size_t r) {
+    const std::uint32_t sp = record.segment(r);
+    w.source[r] = in.support.ending_slot_of(sp);
+    w.starting_weight[r] = in.weighted_geometry[sp];
+    w.starting_emitted[r] = in.emitted[sp] * in.weighted_geometry[sp];
   });
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     w.ending_emitted[i] = in.emitted[ending_segment[i]];
@@ -149,8 +151,8 @@ void prepare_propagation(const PropagationInputs<S, Link, J>& in, PropagationWor
 
 /// The iterations of propagate() on a workspace prepared for the same inputs: `iterations`
 /// >= 1 Jacobi iterations from in(s) = L_e(s); returns L after them in `radiance` (size =
-/// #segments). Each iteration but the first gathers in(s') G w(s') into starting slot order
-/// (the one random read per starting slot, in a tight loop that overlaps the misses), then
+/// #segments). Each iteration but the first gathers in(s') G w(s') into start record order
+/// (the one random read per record, in a tight loop that overlaps the misses), then
 /// runs over the groups reading and writing slot data in order; the result is scattered to
 /// segment order at the end. Parallel through `parallel_for`; each out(s) is written by the one
 /// group holding y_s and summed in increasing starting slot order, out(s) = L_e(s) +
@@ -164,17 +166,18 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
   const J& support = in.support;
   const auto starting_segment = support.starting_segments();
   const auto ending_segment = support.ending_segments();
+  const StartRecords<J> record(support);
   auto& w = workspace;
-  if (w.source.size() != std::ranges::size(starting_segment) || w.out.size() != std::ranges::size(ending_segment) ||
+  if (w.source.size() != record.size() || w.out.size() != std::ranges::size(ending_segment) ||
       w.ending_diffuse.size() != (in.factorised.empty() ? 0 : w.out.size()))
     throw std::invalid_argument("segpath::propagate_prepared: the workspace is not prepared for these inputs");
   constexpr bool by_slot = std::is_invocable_v<const Link&, Id, Id, Id, Id>;
   const bool has_factorisation = !in.factorised.empty();
   for (int k = 0; k < iterations; ++k) {
     if (k > 0) {
-      for_blocks(w.source.size(), parallel_for, [&](std::size_t j) {
-        const std::uint32_t i = w.source[j];
-        w.starting_value[j] = i == no_cluster ? w.starting_emitted[j] : w.out[i] * w.starting_weight[j];
+      for_blocks(w.source.size(), parallel_for, [&](std::size_t r) {
+        const std::uint32_t i = w.source[r];
+        w.starting_value[r] = i == no_cluster ? w.starting_emitted[r] : w.out[i] * w.starting_weight[r];
       });
     }
     const S* value = (k == 0 ? w.starting_emitted : w.starting_value).data();
@@ -184,18 +187,18 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
       if constexpr (J::factorisable) {
         if (has_factorisation && in.factorised[g]) {
           S sum(T(0));
-          for (std::uint32_t j = starting.begin; j < starting.end; ++j) sum += value[j];
+          for (std::uint32_t j = starting.begin; j < starting.end; ++j) sum += value[record(j)];
           for (std::uint32_t i = ending.begin; i < ending.end; ++i)
             w.out[i] = w.ending_emitted[i] + w.ending_diffuse[i] * sum * kernel;
           // A segment starting here too does not join itself: its sum again without its own
           // term (summed afresh, not subtracted, so that a dominant own term leaves no
           // cancellation).
           for (std::uint32_t own = starting.begin; own < starting.end; ++own) {
-            const std::uint32_t i = w.source[own];
+            const std::uint32_t i = w.source[record(own)];
             if (!ending.contains(i)) continue;
             S others(T(0));
             for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-              if (j != own) others += value[j];
+              if (j != own) others += value[record(j)];
             w.out[i] = w.ending_emitted[i] + w.ending_diffuse[i] * others * kernel;
           }
           return;
@@ -204,11 +207,12 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
       for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
         S sum(T(0));
         for (std::uint32_t j = starting.begin; j < starting.end; ++j) {
-          if (w.starting_weight[j] == T(0) || w.source[j] == i) continue;  // source[j] == i: s' is s
+          const std::uint32_t r = record(j);
+          if (w.starting_weight[r] == T(0) || w.source[r] == i) continue;  // source == i: s' is s
           if constexpr (by_slot) {
-            sum += in.link(ending_segment[i], starting_segment[j], i, j) * value[j];
+            sum += in.link(ending_segment[i], starting_segment[j], i, j) * value[r];
           } else {
-            sum += in.link(ending_segment[i], starting_segment[j]) * value[j];
+            sum += in.link(ending_segment[i], starting_segment[j]) * value[r];
           }
         }
         w.out[i] = w.ending_emitted[i] + sum * kernel;
