@@ -116,10 +116,23 @@ TEST_CASE("propagation over disks equals the naive recursive MMIS estimator on 3
     DiskJunctions<double> junctions;
     junctions.build(r, std::span<const Segment<double>>(segments));
     auto link_of = [&](std::uint32_t s, std::uint32_t sp) { return link[s * n + sp]; };
-    const DiskPropagationInputs<double, decltype(link_of)> inputs{junctions, emitted, weighted_geometry, link_of};
+    const PropagationInputs<double, decltype(link_of), DiskJunctions<double>> inputs{junctions, emitted, weighted_geometry, link_of};
     const int depth = 1 + int(rng.next_u32() % 4);
-    std::vector<double> radiance, scratch;
+    std::vector<double> radiance, scratch, threaded;
     propagate(inputs, depth, radiance, scratch);
+    propagate(inputs, depth, threaded, scratch, segpath::testing::TwoThreadFor{});
+    // The order of the sums: per segment, its neighbours in increasing id order,
+    // sum += f_r (L G w)(s'), then L_e + sum K; bit for bit.
+    std::vector<double> current(emitted), next(n);
+    for (int k = 0; k < depth; ++k, std::swap(current, next))
+      for (std::uint32_t s = 0; s < n; ++s) {
+        double sum = 0;
+        for (const std::uint32_t sp : junctions.starting_near(s))
+          if (weighted_geometry[sp] != 0) sum += link_of(s, sp) * (current[sp] * weighted_geometry[sp]);
+        next[s] = emitted[s] + sum * junctions.kernel();
+      }
+    CHECK(radiance == current);
+    CHECK(threaded == radiance);
     for (std::uint32_t s = 0; s < n; ++s) {
       const double reference = naive(segments, emitted, weighted_geometry, link, r, s, depth);
       CHECK(radiance[s] == Approx(reference).epsilon(1e-12).margin(1e-300));

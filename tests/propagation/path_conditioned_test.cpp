@@ -174,6 +174,27 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
     if (disk) {
       propagate_conditioned(junctions, inputs, depth, result);
       propagate_conditioned(junctions, inputs, depth, threaded, segpath::testing::TwoThreadFor{});
+      // The order of the sums: per segment, its neighbours in increasing id order; bit for
+      // bit, with or without a junction table.
+      std::vector<ConditionedValues<double>> current(p.n), next(p.n);
+      for (std::uint32_t s = 0; s < p.n; ++s) current[s] = detail::conditioned_emission(inputs, s);
+      for (int k = 0; k < depth; ++k, std::swap(current, next))
+        for (std::uint32_t s = 0; s < p.n; ++s) {
+          next[s] = detail::conditioned_emission(inputs, s);
+          for (const std::uint32_t sp : junctions.starting_near(s)) {
+            if (!(p.geometry[sp] > 0)) continue;
+            const double ql = (p.flags[sp] & conditioned_potential) ? p.light_pair(s, sp) : 0.0;
+            detail::conditioned_junction(detail::conditioned_end(inputs, s), p.flags[sp], detail::conditioned_forced_weight(inputs, sp),
+                                         p.link(s, sp) * (junctions.kernel() * p.geometry[sp]), ql, current[sp], next[s]);
+          }
+        }
+      std::vector<double> tabled;
+      CHECK(propagate_conditioned(junctions, inputs, depth, tabled, SerialFor{}, {}, {}, std::size_t(1) << 30) ==
+            junctions.junction_count() * sizeof(detail::ConditionedJunction<double>));
+      for (std::uint32_t s = 0; s < p.n; ++s) {
+        CHECK(result[s] == current[s].w[0] + current[s].w[1]);
+        CHECK(tabled[s] == result[s]);
+      }
     } else {
       propagate_conditioned(clustering, inputs, depth, result);
       propagate_conditioned(clustering, inputs, depth, threaded, segpath::testing::TwoThreadFor{});

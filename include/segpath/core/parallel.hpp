@@ -20,14 +20,29 @@ struct SerialFor {
   }
 };
 
-/// The chunked loop over [0, n): `blocks` contiguous ranges, one parallel_for task each, body(i)
-/// for every i (for flat per-element loops whose bodies are too small to be tasks of their own).
-inline constexpr std::size_t default_blocks = 64;
+/// The number of chunks of at most `size` (> 0) items that [0, n) takes.
+[[nodiscard]] constexpr std::size_t chunk_count(std::size_t n, std::size_t size) noexcept { return (n + size - 1) / size; }
 
+/// Splits [0, n) into `chunks` contiguous ranges of near-equal size and calls body(begin, end)
+/// once per range, through `parallel_for` (one task per range; empty ranges are skipped).
 template <class Body, ParallelFor P>
-void for_blocks(std::size_t n, const P& parallel_for, const Body& body, std::size_t blocks = default_blocks) {
-  parallel_for(blocks, [&](std::size_t b) {
-    for (std::size_t i = n * b / blocks, e = n * (b + 1) / blocks; i < e; ++i) body(i);
+void for_chunks(std::size_t n, std::size_t chunks, const P& parallel_for, const Body& body) {
+  if (n == 0 || chunks == 0) return;
+  parallel_for(chunks, [&](std::size_t c) {
+    const std::size_t begin = n * c / chunks, end = n * (c + 1) / chunks;
+    if (begin < end) body(begin, end);
+  });
+}
+
+/// The number of tasks for_blocks() splits a flat loop into.
+inline constexpr std::size_t parallel_blocks = 64;
+
+/// body(i) for every i in [0, n), in parallel_blocks contiguous blocks: for flat loops whose
+/// iterations are too cheap to be tasks of their own.
+template <class Body, ParallelFor P>
+void for_blocks(std::size_t n, const P& parallel_for, const Body& body) {
+  for_chunks(n, parallel_blocks, parallel_for, [&](std::size_t begin, std::size_t end) {
+    for (std::size_t i = begin; i < end; ++i) body(i);
   });
 }
 

@@ -7,6 +7,7 @@
 
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/segment.hpp"
+#include "segpath/propagation/junction_support.hpp"
 #include "segpath/propagation/plane_box_area.hpp"
 #include "segpath/propagation/voxel_grid.hpp"
 
@@ -22,8 +23,6 @@
 #include <vector>
 
 namespace segpath {
-
-inline constexpr std::uint32_t no_cluster = 0xffffffffu;
 
 /// One endpoint in a cluster: which segment and which end.
 struct EndpointRef {
@@ -99,13 +98,20 @@ std::span<E> radix_sort(std::span<E> data, std::span<E> scratch, unsigned lo, un
 
 }  // namespace detail
 
-/// The clusters of one iteration. Memory: one EndpointRef per endpoint, three ids per segment
+/// The clusters of one iteration, a JunctionSupport (propagation/junction_support.hpp) whose
+/// groups are the clusters. Memory: one EndpointRef per endpoint, three ids per segment
 /// and one per slot, O(#segments); during build only, two 8-byte codes per endpoint (the radix
 /// sort's, allocated once per build). Deterministic: the sort order is a total order, and the
 /// parallel steps write disjoint outputs.
 template <Real T>
 class Clustering {
  public:
+  using Scalar = T;
+  /// A cluster's junction sums may factorise (PropagationInputs::factorised).
+  static constexpr bool factorisable = true;
+  /// A segment's x end is in at most one cluster.
+  static constexpr bool single_start = true;
+
   Clustering() = default;
 
   /// Clusters the endpoints of `segments` on `grid`. Endpoints that are not surface points
@@ -157,6 +163,19 @@ class Clustering {
   [[nodiscard]] std::uint32_t cluster_of_y(std::uint32_t segment) const noexcept { return cluster_of_y_[segment]; }
   /// The ending slot of a segment (of its y end), or no_cluster.
   [[nodiscard]] std::uint32_t ending_slot_of(std::uint32_t segment) const noexcept { return ending_slot_of_[segment]; }
+  /// JunctionSupport: the clusters as groups.
+  [[nodiscard]] std::size_t group_count() const noexcept { return clusters_.size(); }
+  [[nodiscard]] std::size_t segment_count() const noexcept { return cluster_of_x_.size(); }
+  [[nodiscard]] SlotRange ending_slots(std::size_t c) const noexcept {
+    const Cluster<T>& cl = clusters_[c];
+    const std::uint32_t first = cl.ending_slot(cl.middle);
+    return {first, first + cl.ending_count()};
+  }
+  [[nodiscard]] SlotRange starting_slots(std::size_t c) const noexcept {
+    return {clusters_[c].slot, clusters_[c].slot + clusters_[c].starting_count()};
+  }
+  [[nodiscard]] T kernel(std::size_t c) const noexcept { return clusters_[c].kernel; }
+
   [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
     if (cluster_of_x_.empty()) return 0;
     return (refs_.capacity() * sizeof(EndpointRef) + clusters_.capacity() * sizeof(Cluster<T>) +

@@ -7,11 +7,13 @@
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/segment.hpp"
 #include "segpath/kernels/hash_grid.hpp"
+#include "segpath/propagation/junction_support.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <ranges>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -26,9 +28,19 @@ namespace segpath {
 /// technique sample whose kernel reaches this end". A segment is never in its own lists: it does
 /// not join itself, nor draw itself (propagation/propagate.hpp). Memory: two ids per junction plus two
 /// offsets per segment, O(#segments x occupancy).
+///
+/// As a JunctionSupport (propagation/junction_support.hpp): group s is segment s, its one
+/// ending slot s, its starting slots the junctions of starting_near(s) (slot j holds the
+/// segment starting_segments()[j]; a segment has one starting slot per disk holding its x end).
 template <Real T>
 class DiskJunctions {
  public:
+  using Scalar = T;
+  /// One end per group: nothing to factorise.
+  static constexpr bool factorisable = false;
+  /// A segment starts in every disk that holds its x end.
+  static constexpr bool single_start = false;
+
   DiskJunctions() = default;
 
   /// Builds the lists for `segments` with disk radius `radius` (> 0, finite). `canonical`
@@ -64,9 +76,9 @@ class DiskJunctions {
     };
     starting_offsets_.assign(std::size_t(n) + 1, 0);
     constexpr std::size_t chunk = 4096;
-    const std::size_t chunks = (std::size_t(n) + chunk - 1) / chunk;
-    parallel_for(chunks, [&](std::size_t c) {
-      for (std::size_t s = c * chunk; s < std::min<std::size_t>(n, (c + 1) * chunk); ++s) {
+    const std::size_t chunks = chunk_count(n, chunk);
+    for_chunks(n, chunks, parallel_for, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t s = begin; s < end; ++s) {
         std::uint32_t count = 0;
         for_each_start_near(std::uint32_t(s), [&](std::uint32_t) { ++count; });
         starting_offsets_[s + 1] = count;
@@ -80,8 +92,8 @@ class DiskJunctions {
       starting_offsets_[s + 1] = std::uint32_t(total);
     }
     starting_.resize(starting_offsets_[n]);
-    parallel_for(chunks, [&](std::size_t c) {
-      for (std::size_t s = c * chunk; s < std::min<std::size_t>(n, (c + 1) * chunk); ++s) {
+    for_chunks(n, chunks, parallel_for, [&](std::size_t begin, std::size_t end) {
+      for (std::size_t s = begin; s < end; ++s) {
         std::uint32_t* out = starting_.data() + starting_offsets_[s];
         std::uint32_t* cursor = out;
         for_each_start_near(std::uint32_t(s), [&](std::uint32_t sp) { *cursor++ = sp; });
@@ -116,6 +128,21 @@ class DiskJunctions {
   [[nodiscard]] std::span<const std::uint32_t> ending_near(std::uint32_t s) const noexcept {
     return {ending_.data() + ending_offsets_[s], ending_.data() + ending_offsets_[s + 1]};
   }
+
+  /// JunctionSupport: one group per segment.
+  [[nodiscard]] std::size_t group_count() const noexcept { return segment_count(); }
+  [[nodiscard]] SlotRange ending_slots(std::size_t s) const noexcept { return {std::uint32_t(s), std::uint32_t(s) + 1}; }
+  [[nodiscard]] SlotRange starting_slots(std::size_t s) const noexcept {
+    return {starting_offsets_[s], starting_offsets_[s + 1]};
+  }
+  [[nodiscard]] T kernel(std::size_t) const noexcept { return kernel_; }
+  /// Ending slot s is segment s.
+  [[nodiscard]] auto ending_segments() const noexcept {
+    return std::views::iota(std::uint32_t(0), std::uint32_t(segment_count()));
+  }
+  /// The starting_near lists, concatenated.
+  [[nodiscard]] std::span<const std::uint32_t> starting_segments() const noexcept { return starting_; }
+  [[nodiscard]] std::uint32_t ending_slot_of(std::uint32_t s) const noexcept { return s; }
 
   [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
     const std::size_t n = segment_count();

@@ -70,11 +70,14 @@
 #include "segpath/core/spectrum.hpp"
 #include "segpath/propagation/clustering.hpp"
 #include "segpath/propagation/disk_junctions.hpp"
+#include "segpath/propagation/junction_support.hpp"
+#include "segpath/propagation/pair_table.hpp"
 #include "segpath/propagation/propagate.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <ranges>
 #include <span>
 #include <stdexcept>
 #include <type_traits>
@@ -254,81 +257,89 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 
 }  // namespace detail
 
-/// `iterations` >= 1 Jacobi iterations over the clusters from the emission; returns per
-/// segment W_0 + W_1 in `weighted` (L(s) with the chain weights, s's own included: a sensor
-/// segment's pixel value is W G(s) weighted[s]). Parallel over clusters; each segment's values
-/// are written by the one cluster holding its y end, junctions summed in ref order, so the
-/// result does not depend on the number of threads. Everything is kept per slot in cluster order,
-/// so an iteration reads the values of each s' at random once and the rest in order. Memory:
-/// four ConditionedValues (emission, two iterations, starting slot) and 32 bytes per segment.
+/// `iterations` >= 1 Jacobi iterations over the groups of a JunctionSupport (clusters, disks)
+/// from the emission; returns per segment W_0 + W_1 in `weighted` (L(s) with the chain
+/// weights, s's own included: a sensor segment's pixel value is W G(s) weighted[s]). Parallel
+/// over groups; each segment's values are written by the one group holding its y end,
+/// junctions summed in increasing starting slot order, so the result does not depend on the
+/// number of threads. Over clusters everything is kept per slot in group order, so an iteration
+/// reads the values of each s' at random once per starting slot and the rest in order; over
+/// disks what is read of a start is kept per segment and read at random (StartRecords).
+/// Memory: four ConditionedValues (emission, two iterations, start) and 32 bytes (float) per
+/// segment.
 ///
-/// `factorised[c]` (optional, one per cluster) marks clusters where link(s, s') = diffuse[s]
-/// for every s ending and s' starting there and light_pair(s, s') is the same for every s'
-/// with conditioned_potential (Lambertian ends and starts with one normal): their junctions are
-/// summed per flag class of s' (three classes), O(#ending + #starting) instead of the product;
-/// each ending slot then keeps its three class junctions (3 x 24 bytes for Rgb<float>).
+/// `factorised[g]` (optional, one per group; J::factorisable supports only) marks groups where
+/// link(s, s') = diffuse[s] for every s ending and s' starting there and light_pair(s, s') is
+/// the same for every s' with conditioned_potential (Lambertian ends and starts with one
+/// normal): their junctions are summed per flag class of s' (three classes), O(#ending +
+/// #starting) instead of the product; each ending slot then keeps its three class junctions
+/// (3 x 24 bytes for Rgb<float>).
 ///
-/// `junction_cache_bytes`: the general clusters whose ConditionedJunction table (one per pair,
-/// sizeof(detail::ConditionedJunction<S>) bytes) fits in this budget, in cluster order, call link and
-/// light_pair once per pair for the whole propagation instead of once per pair and iteration.
-/// The result is the same. Returns the bytes the table took.
-template <Spectrum S, class Link, class LightPair, ParallelFor P = SerialFor>
-std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& clustering, const ConditionedInputs<S, Link, LightPair>& in,
-                                  int iterations, std::vector<S>& weighted, const P& parallel_for = {},
+/// `junction_cache_bytes`: the general groups whose ConditionedJunction table (a PairTable, one
+/// sizeof(detail::ConditionedJunction<S>) per pair) fits in this budget, in group order, call
+/// link and light_pair once per pair for the whole propagation instead of once per pair and
+/// iteration. The result is the same. Returns the bytes the table took.
+template <JunctionSupport J, Spectrum S, class Link, class LightPair, ParallelFor P = SerialFor>
+std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, Link, LightPair>& in, int iterations,
+                                  std::vector<S>& weighted, const P& parallel_for = {},
                                   std::span<const std::uint8_t> factorised = {}, std::span<const S> diffuse = {},
                                   std::size_t junction_cache_bytes = 0) {
   using T = spectrum_scalar_t<S>;
+  using Junction = detail::ConditionedJunction<S>;
+  static_assert(std::is_same_v<typename J::Scalar, T>, "segpath::propagate_conditioned: the support's Scalar is not the spectrum's");
   detail::check_conditioned(in, iterations);
   const std::size_t n = in.emitted.size();
-  if (!factorised.empty() && (factorised.size() != clustering.clusters().size() || diffuse.size() != n))
-    throw std::invalid_argument("segpath::propagate_conditioned: factorisation data does not match the pool");
-  const auto clusters = clustering.clusters();
-  const auto starting_segment = clustering.starting_segments();
-  const auto ending_segment = clustering.ending_segments();
-  // Everything per slot, in cluster order (propagation/clustering.hpp): an iteration reads the
-  // values of s' at random once per starting slot and the rest in order.
-  std::vector<detail::ConditionedEnd<T>> end(ending_segment.size());
-  std::vector<ConditionedValues<S>> emission(ending_segment.size()), current, next(ending_segment.size()),
-      starting_values(starting_segment.size());
-  std::vector<detail::ConditionedStart<T>> start(starting_segment.size());
-  std::vector<S> ending_diffuse(factorised.empty() ? 0 : ending_segment.size());
-  detail::for_blocks(ending_segment.size(), parallel_for, [&](std::size_t i) {
+  detail::check_support(support, n, factorised.size(), diffuse.size(), "segpath::propagate_conditioned");
+  const bool has_factorisation = !factorised.empty();
+  const auto starting_segment = support.starting_segments();
+  const auto ending_segment = support.ending_segments();
+  const std::size_t ending_slots = std::ranges::size(ending_segment);
+  const StartRecords<J> record(support);
+  // Everything per slot (or start record), in group order: an iteration reads the values of s'
+  // at random once per record and the rest in order.
+  std::vector<detail::ConditionedEnd<T>> end(ending_slots);
+  std::vector<ConditionedValues<S>> emission(ending_slots), current, next(ending_slots), starting_values(record.size());
+  std::vector<detail::ConditionedStart<T>> start(record.size());
+  std::vector<S> ending_diffuse(has_factorisation ? ending_slots : 0);
+  for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     const std::uint32_t s = ending_segment[i];
     end[i] = detail::conditioned_end(in, s);
     emission[i] = detail::conditioned_emission(in, s);
-    if (!factorised.empty()) ending_diffuse[i] = diffuse[s];
+    if (has_factorisation) ending_diffuse[i] = diffuse[s];
   });
-  detail::for_blocks(starting_segment.size(), parallel_for, [&](std::size_t j) {
-    const std::uint32_t sp = starting_segment[j];
-    start[j] = {in.geometry[sp], detail::conditioned_forced_weight(in, sp), clustering.ending_slot_of(sp), in.flags[sp]};
+  for_blocks(record.size(), parallel_for, [&](std::size_t r) {
+    const std::uint32_t sp = record.segment(r);
+    start[r] = {in.geometry[sp], detail::conditioned_forced_weight(in, sp), support.ending_slot_of(sp), in.flags[sp]};
   });
-  // Classes of s' in a factorised cluster: 0 not a potential light technique, 1 potential,
+  // Classes of s' in a factorised group: 0 not a potential light technique, 1 potential,
   // 2 light technique sample. There q_l(s | s') is the same for every potential s', so each
   // ending slot has three junctions, one per class, fixed for the whole propagation.
-  constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
-                                           conditioned_potential | conditioned_light_technique | conditioned_light_born};
-  std::vector<std::array<detail::ConditionedJunction<S>, 3>> class_junction(factorised.empty() ? 0 : ending_segment.size());
-  if (!factorised.empty()) {
-    parallel_for(clusters.size(), [&](std::size_t c) {
-      if (!factorised[c]) return;
-      const Cluster<T>& cl = clusters[c];
-      std::uint32_t representative = no_cluster;
-      for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j)
-        if (start[j].geometry > T(0) && (start[j].flags & conditioned_potential)) representative = starting_segment[j];
-      const std::uint32_t first = cl.ending_slot(cl.middle);
-      for (std::uint32_t i = first; i < first + cl.ending_count(); ++i) {
-        const T ql = representative == no_cluster ? T(0) : T(in.light_pair(ending_segment[i], representative));
-        const S transfer = ending_diffuse[i] * cl.kernel;
-        for (int k_class = 0; k_class < 3; ++k_class)
-          class_junction[i][k_class] =
-              detail::conditioned_coefficients(end[i], class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0));
-      }
-    });
+  std::vector<std::array<Junction, 3>> class_junction(has_factorisation ? ending_slots : 0);
+  if constexpr (J::factorisable) {
+    if (has_factorisation) {
+      detail::for_groups(support, parallel_for, [&](std::size_t g) {
+        if (!factorised[g]) return;
+        constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
+                                                 conditioned_potential | conditioned_light_technique | conditioned_light_born};
+        const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
+        std::uint32_t representative = no_cluster;
+        for (std::uint32_t j = starting.begin; j < starting.end; ++j)
+          if (start[record(j)].geometry > T(0) && (start[record(j)].flags & conditioned_potential))
+            representative = starting_segment[j];
+        for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
+          const T ql = representative == no_cluster ? T(0) : T(in.light_pair(ending_segment[i], representative));
+          const S transfer = ending_diffuse[i] * support.kernel(g);
+          for (int k_class = 0; k_class < 3; ++k_class)
+            class_junction[i][k_class] =
+                detail::conditioned_coefficients(end[i], class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0));
+        }
+      });
+    }
   }
-  // The junction of ending slot i and starting slot j of a general cluster with kernel K.
-  auto junction = [&](std::uint32_t i, std::uint32_t j, T kernel) -> detail::ConditionedJunction<S> {
+  // The junction of ending slot i and starting slot j of a general group with kernel K.
+  auto junction = [&](std::uint32_t i, std::uint32_t j, T kernel) -> Junction {
     const std::uint32_t s = ending_segment[i], sp = starting_segment[j];
-    const detail::ConditionedStart<T>& st = start[j];
+    const detail::ConditionedStart<T>& st = start[record(j)];
     S f;
     if constexpr (std::is_invocable_v<const Link&, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>) {
       f = in.link(s, sp, i, j);
@@ -345,129 +356,79 @@ std::size_t propagate_conditioned(const Clustering<spectrum_scalar_t<S>>& cluste
     }
     return detail::conditioned_coefficients(end[i], st.flags, st.forced_weight, S(f * (kernel * st.geometry)), ql);
   };
-  // The junction table of the general clusters that fit the budget, in cluster order.
-  constexpr std::size_t no_table = ~std::size_t(0);
-  std::vector<std::size_t> table_offset(clusters.size(), no_table);
-  std::size_t table_size = 0;
-  for (std::size_t c = 0; c < clusters.size(); ++c) {
-    if (!factorised.empty() && factorised[c]) continue;
-    const std::size_t pairs = std::size_t(clusters[c].ending_count()) * clusters[c].starting_count();
-    if (pairs == 0 || (table_size + pairs) * sizeof(detail::ConditionedJunction<S>) > junction_cache_bytes) continue;
-    table_offset[c] = table_size;
-    table_size += pairs;
-  }
-  std::vector<detail::ConditionedJunction<S>> table(table_size);
-  parallel_for(clusters.size(), [&](std::size_t c) {
-    if (table_offset[c] == no_table) return;
-    const Cluster<T>& cl = clusters[c];
-    detail::ConditionedJunction<S>* row = &table[table_offset[c]];
-    const std::uint32_t first_ending = cl.ending_slot(cl.middle);
-    for (std::uint32_t i = first_ending; i < first_ending + cl.ending_count(); ++i)
-      for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j, ++row)
-        if (start[j].geometry > T(0) && start[j].source != i) *row = junction(i, j, cl.kernel);
-  });
+  // s -> s' is a junction: s' carries weight and is not s.
+  auto joins = [&](std::uint32_t i, std::uint32_t j) {
+    const detail::ConditionedStart<T>& st = start[record(j)];
+    return st.geometry > T(0) && st.source != i;
+  };
+  // The junctions of the general groups that fit the budget, built once.
+  PairTable<Junction> table;
+  table.build(
+      support, junction_cache_bytes, factorised,
+      [&](std::size_t g, std::uint32_t i, std::uint32_t j) { return joins(i, j) ? junction(i, j, support.kernel(g)) : Junction{}; },
+      parallel_for);
   current = emission;
   for (int k = 0; k < iterations; ++k) {
-    detail::for_blocks(starting_segment.size(), parallel_for, [&](std::size_t j) {
-      const std::uint32_t i = start[j].source;
-      starting_values[j] = i == no_cluster ? detail::conditioned_emission(in, starting_segment[j]) : current[i];
+    for_blocks(record.size(), parallel_for, [&](std::size_t r) {
+      const std::uint32_t i = start[r].source;
+      starting_values[r] = i == no_cluster ? detail::conditioned_emission(in, record.segment(r)) : current[i];
     });
-    parallel_for(clusters.size(), [&](std::size_t c) {
-      const Cluster<T>& cl = clusters[c];
-      const std::uint32_t first_ending = cl.ending_slot(cl.middle), last_ending = first_ending + cl.ending_count();
-      const std::uint32_t first_starting = cl.slot, last_starting = cl.slot + cl.starting_count();
-      if (!factorised.empty() && factorised[c]) {
-        // The sums over the starts of each class, but for slot `skip` (none: no_cluster).
-        auto class_sums = [&](std::uint32_t skip) {
-          std::array<ConditionedValues<S>, 3> sum{};
-          for (std::uint32_t j = first_starting; j < last_starting; ++j) {
-            const detail::ConditionedStart<T>& st = start[j];
-            if (!(st.geometry > T(0)) || j == skip) continue;
-            const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
-            for (int e = 0; e < 2; ++e) {
-              sum[k_class].w[e] += starting_values[j].w[e] * st.geometry;
-              sum[k_class].u[e] += starting_values[j].u[e] * (st.geometry * st.forced_weight);
+    detail::for_groups(support, parallel_for, [&](std::size_t g) {
+      const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
+      if constexpr (J::factorisable) {
+        if (has_factorisation && factorised[g]) {
+          // The sums over the starts of each class, but for slot `skip` (none: no_cluster).
+          auto class_sums = [&](std::uint32_t skip) {
+            std::array<ConditionedValues<S>, 3> sum{};
+            for (std::uint32_t j = starting.begin; j < starting.end; ++j) {
+              const detail::ConditionedStart<T>& st = start[record(j)];
+              if (!(st.geometry > T(0)) || j == skip) continue;
+              const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
+              const ConditionedValues<S>& v = starting_values[record(j)];
+              for (int e = 0; e < 2; ++e) {
+                sum[k_class].w[e] += v.w[e] * st.geometry;
+                sum[k_class].u[e] += v.u[e] * (st.geometry * st.forced_weight);
+              }
             }
-          }
-          return sum;
-        };
-        auto values_of = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
-          ConditionedValues<S> acc = emission[i];
-          for (int k_class = 0; k_class < 3; ++k_class) detail::apply_junction(class_junction[i][k_class], sum[k_class], acc);
-          return acc;
-        };
-        const std::array<ConditionedValues<S>, 3> all = class_sums(no_cluster);
-        for (std::uint32_t i = first_ending; i < last_ending; ++i) next[i] = values_of(i, all);
-        // A segment starting here too does not join itself (propagation/propagate.hpp): its
-        // sums again without its own start, summed afresh (no cancellation of a dominant term).
-        for (std::uint32_t j = first_starting; j < last_starting; ++j)
-          if (start[j].source >= first_ending && start[j].source < last_ending)
-            next[start[j].source] = values_of(start[j].source, class_sums(j));
-        return;
-      }
-      if (table_offset[c] != no_table) {
-        const detail::ConditionedJunction<S>* row = &table[table_offset[c]];
-        for (std::uint32_t i = first_ending; i < last_ending; ++i) {
-          ConditionedValues<S> acc = emission[i];
-          for (std::uint32_t j = first_starting; j < last_starting; ++j, ++row)
-            if (start[j].geometry > T(0) && start[j].source != i) detail::apply_junction(*row, starting_values[j], acc);
-          next[i] = acc;
+            return sum;
+          };
+          auto values_of = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
+            ConditionedValues<S> acc = emission[i];
+            for (int k_class = 0; k_class < 3; ++k_class) detail::apply_junction(class_junction[i][k_class], sum[k_class], acc);
+            return acc;
+          };
+          const std::array<ConditionedValues<S>, 3> all = class_sums(no_cluster);
+          for (std::uint32_t i = ending.begin; i < ending.end; ++i) next[i] = values_of(i, all);
+          // A segment starting here too does not join itself (propagation/propagate.hpp): its
+          // sums again without its own start, summed afresh (no cancellation of a dominant term).
+          for (std::uint32_t j = starting.begin; j < starting.end; ++j)
+            if (const std::uint32_t i = start[record(j)].source; ending.contains(i)) next[i] = values_of(i, class_sums(j));
+          return;
         }
-        return;
       }
-      for (std::uint32_t i = first_ending; i < last_ending; ++i) {
+      const T kernel = support.kernel(g);
+      for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
         ConditionedValues<S> acc = emission[i];
-        for (std::uint32_t j = first_starting; j < last_starting; ++j)
-          if (start[j].geometry > T(0) && start[j].source != i) detail::apply_junction(junction(i, j, cl.kernel), starting_values[j], acc);
+        if (const Junction* row = table.row(i, starting.begin)) {
+          for (std::uint32_t j = starting.begin; j < starting.end; ++j, ++row)
+            if (joins(i, j)) detail::apply_junction(*row, starting_values[record(j)], acc);
+        } else {
+          for (std::uint32_t j = starting.begin; j < starting.end; ++j)
+            if (joins(i, j)) detail::apply_junction(junction(i, j, kernel), starting_values[record(j)], acc);
+        }
         next[i] = acc;
       }
     });
     std::swap(current, next);
   }
-  // Segments whose y end is in no cluster keep their emission.
+  // Segments whose y end is in no group keep their emission.
   weighted.resize(n);
-  detail::for_blocks(n, parallel_for, [&](std::size_t s) {
+  for_blocks(n, parallel_for, [&](std::size_t s) {
     const ConditionedValues<S> v = detail::conditioned_emission(in, s);
     weighted[s] = v.w[0] + v.w[1];
   });
-  detail::for_blocks(ending_segment.size(), parallel_for,
-                     [&](std::size_t i) { weighted[ending_segment[i]] = current[i].w[0] + current[i].w[1]; });
-  return table_size * sizeof(detail::ConditionedJunction<S>);
-}
-
-/// The same over the disk support: s' ranges over starting_near(s), K = 1 / (pi r^2).
-template <Spectrum S, class Link, class LightPair, ParallelFor P = SerialFor>
-void propagate_conditioned(const DiskJunctions<spectrum_scalar_t<S>>& junctions, const ConditionedInputs<S, Link, LightPair>& in,
-                           int iterations, std::vector<S>& weighted, const P& parallel_for = {}) {
-  using T = spectrum_scalar_t<S>;
-  detail::check_conditioned(in, iterations);
-  const std::size_t n = in.emitted.size();
-  if (junctions.segment_count() != n)
-    throw std::invalid_argument("segpath::propagate_conditioned: the junctions and the inputs differ in size");
-  const T kernel = junctions.kernel();
-  std::vector<ConditionedValues<S>> current(n), next(n);
-  for (std::size_t s = 0; s < n; ++s) current[s] = detail::conditioned_emission(in, s);
-  constexpr std::size_t chunk = 1024;
-  const std::size_t chunks = (n + chunk - 1) / chunk;
-  for (int k = 0; k < iterations; ++k) {
-    parallel_for(chunks, [&](std::size_t c) {
-      for (std::size_t i = c * chunk; i < std::min(n, (c + 1) * chunk); ++i) {
-        const auto s = std::uint32_t(i);
-        ConditionedValues<S> acc = detail::conditioned_emission(in, s);
-        const detail::ConditionedEnd<T> end = detail::conditioned_end(in, s);
-        for (const std::uint32_t sp : junctions.starting_near(s)) {
-          if (!(in.geometry[sp] > T(0))) continue;
-          const S transfer = in.link(s, sp) * (kernel * in.geometry[sp]);
-          const T ql = (in.flags[sp] & conditioned_potential) ? T(in.light_pair(s, sp)) : T(0);
-          detail::conditioned_junction(end, in.flags[sp], detail::conditioned_forced_weight(in, sp), transfer, ql, current[sp], acc);
-        }
-        next[s] = acc;
-      }
-    });
-    std::swap(current, next);
-  }
-  weighted.resize(n);
-  for (std::size_t s = 0; s < n; ++s) weighted[s] = current[s].w[0] + current[s].w[1];
+  for_blocks(ending_slots, parallel_for, [&](std::size_t i) { weighted[ending_segment[i]] = current[i].w[0] + current[i].w[1]; });
+  return table.value_bytes();
 }
 
 }  // namespace segpath
