@@ -150,7 +150,7 @@ class SegmentFiltering {
         filtering::propagate_pool(ctx, clustering, iterations, radiance, weighted_geometry, parallel_for);
         // Propagation: diffuse when factorising, the transfer and the workspace.
         propagation_bytes = (options_.factorise ? sizeof(S) : 0) + filtering::Transfer<Scn>::bytes_per_segment() +
-                            filtering::PairCache<S>::bytes_per_segment + PropagationWorkspace<S>::bytes_per_segment;
+                            PairTable<S>::bytes_per_ending_slot + PropagationWorkspace<S>::bytes_per_segment;
       }
     } else {
       DiskJunctions<T> junctions;
@@ -166,7 +166,7 @@ class SegmentFiltering {
         propagation_bytes = filtering::conditioned_bytes_per_segment<S>;
       } else {
         filtering::propagate_pool(ctx, junctions, iterations, radiance, weighted_geometry, parallel_for);
-        propagation_bytes = sizeof(S);  // the second radiance buffer
+        propagation_bytes = PropagationWorkspace<S>::bytes_per_segment;
       }
     }
     lap(stats.propagation_seconds);

@@ -61,10 +61,6 @@ struct PropagationInputs {
   std::span<const std::uint8_t> factorised = {};
 };
 
-// transitional: segment_filtering.hpp's call site
-template <Spectrum S, class Link>
-using DiskPropagationInputs = PropagationInputs<S, Link, DiskJunctions<spectrum_scalar_t<S>>>;
-
 /// What propagate() keeps besides its result, reusable across calls: the inputs in slot order
 /// (prepare_propagation, once per pool) and the per-iteration buffers.
 template <Spectrum S>
@@ -89,9 +85,6 @@ struct PropagationWorkspace {
 };
 
 namespace detail {
-// transitional: segment_filtering.hpp's call site
-using segpath::for_blocks;
-
 /// Groups per task of a propagation sweep.
 inline constexpr std::size_t propagation_group_chunk = 256;
 

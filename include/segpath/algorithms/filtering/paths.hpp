@@ -23,7 +23,7 @@
 namespace segpath::filtering {
 
 /// Path generators draw in this many chunks (the pool is the same whatever the thread count).
-inline constexpr std::size_t chunk_count = 64;
+inline constexpr std::size_t path_chunks = 64;
 
 /// The next-event segment of the camera technique point y of `out[source]`: a light point
 /// from sample_towards(y), kept when visible. A failed draw is still a technique sample (the
@@ -216,9 +216,9 @@ void add_bridges(Context<Scn>& ctx, const P& parallel_for) {
   }
   pool.bridge_targets = targets.size();
   if (targets.empty()) return;
-  std::vector<std::vector<Record<T, S>>> bridges(chunk_count);
-  parallel_for(chunk_count, [&](std::size_t c) {
-    const std::size_t j0 = sources.size() * c / chunk_count, j1 = sources.size() * (c + 1) / chunk_count;
+  std::vector<std::vector<Record<T, S>>> bridges(path_chunks);
+  parallel_for(path_chunks, [&](std::size_t c) {
+    const std::size_t j0 = sources.size() * c / path_chunks, j1 = sources.size() * (c + 1) / path_chunks;
     for (std::size_t j = j0; j < j1; ++j) {
       const std::uint32_t t = sources[j];
       Pcg32 rng = Pcg32::for_sample(ctx.options.seed ^ 0x627269646765ULL /* "bridge" */, t, ctx.stream);
@@ -251,11 +251,11 @@ void draw_paths(Context<Scn>& ctx, const P& parallel_for) {
   auto& pool = ctx.pool;
   const std::uint32_t pixels = scene.sensor().pixel_count();
   const std::uint64_t light_paths = ctx.light_paths();
-  std::vector<std::vector<Record<T, S>>> camera(chunk_count), light(chunk_count);
-  parallel_for(chunk_count, [&](std::size_t c) {
-    const std::uint64_t p0 = pixels * c / chunk_count, p1 = pixels * (c + 1) / chunk_count;
+  std::vector<std::vector<Record<T, S>>> camera(path_chunks), light(path_chunks);
+  parallel_for(path_chunks, [&](std::size_t c) {
+    const std::uint64_t p0 = pixels * c / path_chunks, p1 = pixels * (c + 1) / path_chunks;
     for (std::uint64_t p = p0; p < p1; ++p) trace_camera_path(ctx, std::uint32_t(p), camera[c]);
-    const std::uint64_t l0 = light_paths * c / chunk_count, l1 = light_paths * (c + 1) / chunk_count;
+    const std::uint64_t l0 = light_paths * c / path_chunks, l1 = light_paths * (c + 1) / path_chunks;
     for (std::uint64_t l = l0; l < l1; ++l) trace_light_path(ctx, l, light[c]);
   });
   camera.insert(camera.end(), std::make_move_iterator(light.begin()), std::make_move_iterator(light.end()));

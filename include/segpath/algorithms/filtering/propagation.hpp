@@ -11,6 +11,8 @@
 #include "segpath/algorithms/filtering/transfer.hpp"
 #include "segpath/propagation/clustering.hpp"
 #include "segpath/propagation/disk_junctions.hpp"
+#include "segpath/propagation/junction_support.hpp"
+#include "segpath/propagation/pair_table.hpp"
 #include "segpath/propagation/path_conditioned.hpp"
 #include "segpath/propagation/propagate.hpp"
 
@@ -35,52 +37,42 @@ void weighted_geometry_of(const Pool<T, S>& pool, std::vector<T>& weighted_geome
     weighted_geometry[i] = pool.density[i] > T(0) ? pool.geometry[i] / pool.density[i] : T(0);
 }
 
-/// Step 5: `iterations` Jacobi iterations of propagation over the clustered pool, using the
-/// factorised O(n + m) sums where the options allow and the cluster qualifies. Returns L
-/// and G w per segment.
-template <LightSampledScene Scn, ParallelFor P>
-void propagate_pool(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>& clustering, int iterations,
-                    std::vector<typename Scn::Spectrum>& radiance, std::vector<typename Scn::Scalar>& weighted_geometry,
-                    const P& parallel_for) {
-  using S = typename Scn::Spectrum;
-  const Scn& scene = ctx.scene;
-  const auto& pool = ctx.pool;
-  auto& stats = ctx.stats;
-  weighted_geometry_of(pool, weighted_geometry);
-  std::vector<std::uint8_t> factorised;
-  std::vector<S> diffuse;
-  if (ctx.options.factorise) transfer_factorisation(ctx, clustering, factorised, diffuse, parallel_for);
-  Transfer<Scn> transfer;
-  transfer.build(pool, clustering, factorised, parallel_for);
-  const TransferLink<Scn> link{scene.bsdf(), transfer};
-  PairCache<S> cache;
-  cache.build([&](std::uint32_t i, std::uint32_t j) { return link(0, 0, i, j); }, clustering, factorised,
-              ctx.options.transfer_cache_bytes, parallel_for);
-  stats.transfer_cache_bytes = cache.value.size() * sizeof(S);
-  const CachedTransferLink<Scn> cached{link, cache};
-  const PropagationInputs<S, CachedTransferLink<Scn>> inputs{clustering, pool.emitted, weighted_geometry, cached, diffuse, factorised};
-  PropagationWorkspace<S> workspace;
-  propagate(inputs, iterations, radiance, workspace, parallel_for);
-}
-
-/// Step 5 over the disk support (no factorisation: every end has its own disk).
-template <LightSampledScene Scn, ParallelFor P>
-void propagate_pool(Context<Scn>& ctx, const DiskJunctions<typename Scn::Scalar>& junctions, int iterations,
-                    std::vector<typename Scn::Spectrum>& radiance, std::vector<typename Scn::Scalar>& weighted_geometry,
-                    const P& parallel_for) {
+/// Step 5: `iterations` Jacobi iterations of the paper's propagation over the pool's support.
+/// Voxel clusters read the transfer from slot-ordered copies and a pair table built once per
+/// pool, with the factorised O(n + m) sums where the options allow and the cluster qualifies;
+/// disks evaluate the transfer by segment. Returns L and G w per segment.
+template <LightSampledScene Scn, JunctionSupport J, ParallelFor P>
+void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::vector<typename Scn::Spectrum>& radiance,
+                    std::vector<typename Scn::Scalar>& weighted_geometry, const P& parallel_for) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Scn& scene = ctx.scene;
   const auto& pool = ctx.pool;
   weighted_geometry_of(pool, weighted_geometry);
-  const auto& bsdf = scene.bsdf();
-  auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
-    const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});
-    return f * pool.chain[s];
-  };
-  const DiskPropagationInputs<S, decltype(link)> inputs{junctions, pool.emitted, weighted_geometry, link};
-  std::vector<S> scratch;
-  propagate(inputs, iterations, radiance, scratch, parallel_for);
+  PropagationWorkspace<S> workspace;
+  if constexpr (J::factorisable) {
+    std::vector<std::uint8_t> factorised;
+    std::vector<S> diffuse;
+    if (ctx.options.factorise) transfer_factorisation(ctx, support, factorised, diffuse, parallel_for);
+    Transfer<Scn> transfer;
+    transfer.build(pool, support, factorised, parallel_for);
+    const TransferLink<Scn> link{scene.bsdf(), transfer};
+    PairTable<S> table;
+    table.build(support, ctx.options.transfer_cache_bytes, factorised,
+                [&](std::size_t, std::uint32_t i, std::uint32_t j) { return link(0, 0, i, j); }, parallel_for);
+    ctx.stats.transfer_cache_bytes = table.value_bytes();
+    const CachedTransferLink<Scn> cached{link, table};
+    propagate(PropagationInputs<S, CachedTransferLink<Scn>, J>{support, pool.emitted, weighted_geometry, cached, diffuse, factorised},
+              iterations, radiance, workspace, parallel_for);
+  } else {
+    const auto& bsdf = scene.bsdf();
+    auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
+      const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});
+      return f * pool.chain[s];
+    };
+    propagate(PropagationInputs<S, decltype(link), J>{support, pool.emitted, weighted_geometry, link}, iterations, radiance,
+              workspace, parallel_for);
+  }
 }
 
 /// Step 5 with the path-conditioned weighting; returns the weighted L per segment and G
@@ -99,7 +91,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
   std::vector<T> scale(pool.size(), T(0));
   parallel_for(pool.size(), [&](std::size_t i) {
     const auto s = std::uint32_t(i);
-    if constexpr (std::is_same_v<Support, DiskJunctions<T>>) {
+    if constexpr (!Support::factorisable) {
       scale[s] = light_pair_scale<Scn>(pool, support.kernel(), s);
     } else {
       const std::uint32_t c = support.cluster_of_y(s);
@@ -107,7 +99,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     }
   });
   auto light_pair = [&](std::uint32_t s, std::uint32_t sp) -> T { return light_pair_density(scene, pool, scale[s], s, sp); };
-  if constexpr (std::is_same_v<Support, DiskJunctions<T>>) {
+  if constexpr (!Support::factorisable) {
     auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
       return bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance}) *
              pool.chain[s];

@@ -1,12 +1,13 @@
 // The transfer f_r(s, s') chain(s) (N20) as propagation over voxel clusters evaluates it: the
 // copies it reads in slot order (Transfer), the per-pair table built once per pool under a
-// byte budget (PairCache), and the links propagation calls.
+// byte budget (propagation/pair_table.hpp), and the links propagation calls.
 #pragma once
 
 #include "segpath/algorithms/filtering/pool.hpp"
 #include "segpath/concepts/scene.hpp"
 #include "segpath/core/parallel.hpp"
 #include "segpath/propagation/clustering.hpp"
+#include "segpath/propagation/pair_table.hpp"
 
 #include <cstddef>
 #include <cstdint>
@@ -87,55 +88,6 @@ struct Transfer {
   }
 };
 
-/// f_r(s, s') chain(s) of the paper weighting's propagation per (ending slot i, starting slot
-/// j) pair of the clusters that are not factorised, evaluated once per pool instead of once
-/// per sweep, cluster by cluster in order while they fit in a byte budget (a cluster that does
-/// not fit is skipped, later smaller ones may still fit). The path-conditioned weighting keeps
-/// whole junctions instead (propagate_conditioned's junction table).
-template <class V>
-struct PairCache {
-  static constexpr std::int64_t no_row = -(std::int64_t(1) << 62);
-  std::vector<V> value;
-  std::vector<std::int64_t> row;  ///< per ending slot i: value[row[i] + j] for starting slot j, or no_row
-
-  /// `pair(i, j)` the value of ending slot i and starting slot j.
-  template <class Pair, Real Tc, class P = SerialFor>
-  void build(const Pair& pair, const Clustering<Tc>& clustering, std::span<const std::uint8_t> factorised,
-             std::size_t budget_bytes, const P& parallel_for = {}) {
-    const auto clusters = clustering.clusters();
-    row.assign(clustering.ending_slot_count(), no_row);
-    constexpr std::size_t none = ~std::size_t(0);
-    std::vector<std::size_t> offset(clusters.size(), none);
-    const std::size_t budget = budget_bytes / sizeof(V);
-    std::size_t total = 0;
-    for (std::size_t c = 0; c < clusters.size(); ++c) {
-      if (!factorised.empty() && factorised[c]) continue;
-      const std::size_t pairs = std::size_t(clusters[c].ending_count()) * clusters[c].starting_count();
-      if (pairs == 0 || total + pairs > budget) continue;
-      offset[c] = total;
-      total += pairs;
-    }
-    value.resize(total);
-    parallel_for(clusters.size(), [&](std::size_t c) {
-      if (offset[c] == none) return;
-      const Cluster<Tc>& cl = clusters[c];
-      const std::uint32_t first = cl.ending_slot(cl.middle), m = cl.starting_count();
-      for (std::uint32_t e = 0; e < cl.ending_count(); ++e) {
-        const std::size_t base = offset[c] + std::size_t(e) * m;
-        row[first + e] = std::int64_t(base) - std::int64_t(cl.slot);
-        for (std::uint32_t q = 0; q < m; ++q) value[base + q] = pair(first + e, cl.slot + q);
-      }
-    });
-  }
-  /// The value of pair (i, j), or nullptr where it is not cached.
-  [[nodiscard]] const V* find(std::uint32_t i, std::uint32_t j) const noexcept {
-    const std::int64_t r = row[i];
-    return r != no_row ? &value[std::size_t(r + j)] : nullptr;
-  }
-  /// Besides the pairs.
-  static constexpr std::size_t bytes_per_segment = sizeof(std::int64_t);
-};
-
 /// The link(s, s', i, j) of propagation over a Transfer.
 template <LightSampledScene Scn>
 struct TransferLink {
@@ -150,12 +102,13 @@ struct TransferLink {
   }
 };
 
-/// A TransferLink that reads the pairs a PairCache holds.
+/// A TransferLink that reads the pairs a PairTable holds (built once per pool, under
+/// FilteringOptions::transfer_cache_bytes).
 template <LightSampledScene Scn>
 struct CachedTransferLink {
   using S = typename Scn::Spectrum;
   TransferLink<Scn> link;
-  const PairCache<S>& cache;
+  const PairTable<S>& cache;
   S operator()(std::uint32_t s, std::uint32_t sp, std::uint32_t i, std::uint32_t j) const noexcept {
     const S* cached = cache.find(i, j);
     return cached ? *cached : link(s, sp, i, j);
