@@ -8,8 +8,7 @@
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/segment.hpp"
 #include "segpath/propagation/junction_support.hpp"
-#include "segpath/propagation/plane_box_area.hpp"
-#include "segpath/propagation/voxel_grid.hpp"
+#include "segpath/kernels/voxel.hpp"
 
 #include <algorithm>
 #include <bit>

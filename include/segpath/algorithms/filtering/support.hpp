@@ -7,7 +7,7 @@
 #include "segpath/kernels/progressive_radius.hpp"
 #include "segpath/propagation/clustering.hpp"
 #include "segpath/propagation/disk_junctions.hpp"
-#include "segpath/propagation/voxel_grid.hpp"
+#include "segpath/kernels/voxel.hpp"
 
 #include <cmath>
 #include <cstdint>
