@@ -37,34 +37,34 @@ int main(int argc, char** argv) {
   using F = SegmentFiltering<renderer::RenderScene>;
   const F f(o);
   std::vector<double> sum(ml, 0), sum2(ml, 0);
-  for (int it = 1; it <= iters; ++it) {
-    typename F::Pool pool;
-    f.build_pool(scene, it, pool, SerialFor{});
-    FilteringStats stats;
+  for (int it = 0; it < iters; ++it) {
+    auto ctx = f.context(scene, std::uint64_t(it));
+    f.build_pool(ctx);
+    const auto& pool = ctx.pool;
     std::vector<Color> radiance;
     std::vector<T> wg;
     Clustering<T> clustering;
     DiskJunctions<T> junctions;
-    typename F::LightSide side;
+    filtering::LightSide<T> side;
     if (!disk) {
-      f.cluster(scene, f.grid(T(cell), it), pool, clustering, SerialFor{});
-      f.compute_densities(scene, pool, clustering, stats, SerialFor{}, paper ? nullptr : &side);
+      filtering::cluster(ctx, filtering::grid(o, T(cell), ctx.stream), clustering, SerialFor{});
+      filtering::compute_densities(ctx, clustering, SerialFor{}, paper ? nullptr : &side);
     } else {
-      f.join(scene, F::disk_radius(T(cell)), pool, junctions, SerialFor{});
-      f.compute_densities(scene, pool, junctions, stats, SerialFor{});
-      if (!paper) f.light_side(scene, pool, junctions, side, SerialFor{});
+      filtering::join(ctx, filtering::disk_radius(T(cell)), junctions, SerialFor{});
+      filtering::compute_densities(ctx, junctions, SerialFor{});
+      if (!paper) filtering::light_side(ctx, junctions, side, SerialFor{});
     }
     for (std::size_t k = 1; k < ml; ++k) {
       if (!disk) {
-        if (paper) f.propagate_pool(scene, pool, clustering, int(k), radiance, wg, stats, SerialFor{});
-        else f.propagate_conditioned_pool(scene, pool, clustering, side, int(k), radiance, wg, stats, SerialFor{});
+        if (paper) filtering::propagate_pool(ctx, clustering, int(k), radiance, wg, SerialFor{});
+        else filtering::propagate_conditioned_pool(ctx, clustering, side, int(k), radiance, wg, SerialFor{});
       } else {
-        if (paper) f.propagate_pool(scene, pool, junctions, int(k), radiance, wg, SerialFor{});
-        else f.propagate_conditioned_pool(scene, pool, junctions, side, int(k), radiance, wg, stats, SerialFor{});
+        if (paper) filtering::propagate_pool(ctx, junctions, int(k), radiance, wg, SerialFor{});
+        else filtering::propagate_conditioned_pool(ctx, junctions, side, int(k), radiance, wg, SerialFor{});
       }
       double total = 0;
       for (std::size_t i = 0; i < pool.size(); ++i) {
-        if (!(pool.flags[i] & F::sensor_segment)) continue;
+        if (!(pool.flags[i] & filtering::sensor_segment)) continue;
         const Color v = radiance[i] * (pool.sensor_weight[i] * wg[i]);
         if (is_finite(v)) total += (double(v.r) + double(v.g) + double(v.b)) / 3.0;
       }

@@ -69,7 +69,7 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
       if ((pool.flags[t] & filtering::light_technique) && light_drawable) {
         const double k = kernel(s, t);
         if (k > 0) {
-          d += k * to_segment_measure *
+          d += filtering::technique_set(filter.options()).light_continuation * k * to_segment_measure *
                double(bsdf.pdf(BsdfQuery<T>{pool.segments[t].x, -pool.last_direction[s], pool.first_direction[t], Transport::importance}));
           ++techniques;
         }
@@ -112,9 +112,9 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
 
 /// The light side of every denominator for the path-conditioned weighting (SegmentFiltering::
 /// LightSide), recomputed by enumeration: D_l(s) = light start + every light technique sample
-/// whose start lies in y_s's support, its number of positive terms, and D_lt(s), the terms of
-/// samples u whose drawn segment would itself try a predecessor (depth(u) + 2 < max_length,
-/// depth counted along Pool::parent from the light start). Same tolerances as above.
+/// whose start lies in y_s's support (its draw includes the roulette's c), its number of
+/// positive terms, and D_lt(s), which equals D_l(s): light paths have no depth limit, so every
+/// light-born segment's draw would itself try a predecessor. Same tolerances as above.
 template <class Filter, class Scn, class Side, class Kernel>
 void check_light_side(const Filter& filter, const Scn& scene, const typename Filter::Pool& pool, const Side& side,
                       const Kernel& kernel) {
@@ -122,12 +122,7 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
   const double tolerance = std::is_same_v<T, double> ? 1e-12 : 1e-4;
   const auto& bsdf = scene.bsdf();
   const double n_light = double(filter.light_path_count(scene));
-  std::vector<std::uint32_t> depth(pool.size(), 0);
-  for (std::uint32_t i = 0; i < pool.size(); ++i) {
-    if (pool.flags[i] & filtering::camera_born) continue;
-    if (pool.flags[i] & filtering::light_start) depth[i] = 1;
-    else if (pool.parent[i] != filtering::no_parent) depth[i] = depth[pool.parent[i]] + 1;  // parents come first
-  }
+  const double continuation = filtering::technique_set(filter.options()).light_continuation;
   for (std::uint32_t s = 0; s < pool.size(); ++s) {
     const auto& seg = pool.segments[s];
     const auto f = pool.flags[s];
@@ -137,29 +132,28 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
     const double to_segment_measure =
         chain ? double(std::abs(glm::dot(seg.x.normal, pool.first_direction[s]))) / double(std::abs(glm::dot(seg.y.normal, pool.last_direction[s])))
               : double(solid_angle_to_area(T(1), seg.y, seg.x));
-    double dl = 0, dlt = 0;
+    double dl = 0;
     std::uint32_t terms = 0;
     if (on_surface && (!chain || (light_drawable && seg.y.kind == PointKind::surface))) {
       const auto e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{seg.y, -pool.last_direction[s]});
       const double start = n_light * double(e.position) * double(e.direction) * to_segment_measure;
       if (start > 0) {
-        dl += start, dlt += filter.options().max_length > 2 ? start : 0.0;
+        dl += start;
         ++terms;
       }
     }
     if (light_drawable)
       for (std::uint32_t u = 0; u < pool.size(); ++u) {
         if (!(pool.flags[u] & filtering::light_technique) || u == s) continue;
-        const double q = kernel(s, u) * to_segment_measure *
+        const double q = continuation * kernel(s, u) * to_segment_measure *
                          double(bsdf.pdf(BsdfQuery<T>{pool.segments[u].x, -pool.last_direction[s], pool.first_direction[u], Transport::importance}));
         if (!(q > 0)) continue;
         dl += q;
         ++terms;
-        if (std::size_t(depth[u]) + 2 < filter.options().max_length) dlt += q;
       }
     CHECK(double(side.density[s]) == Approx(dl).epsilon(tolerance).margin(1e-300));
     CHECK(side.terms[s] == terms);
-    if (pool.flags[s] & filtering::light_technique) CHECK(double(side.technique_density[s]) == Approx(dlt).epsilon(tolerance).margin(1e-300));
+    CHECK(double(side.technique_density[s]) == Approx(dl).epsilon(tolerance).margin(1e-300));
   }
 }
 

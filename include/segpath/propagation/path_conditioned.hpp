@@ -32,10 +32,13 @@
 //   r_i = e Lambda / (G(s_i) D_l(s_i))                  light-born s_i,
 //   r_i = 1 / D_lt(s_i)                                 forced (after the case above; 0 unless s_i
 //                                                        is a light technique sample),
-// where D_lt <= D_l keeps the light generators whose child tries a predecessor (light paths stop
-// at max_length: a light birth is a light *technique* birth only with part of D_l; alpha splits
+// where D_lt <= D_l keeps the light generators whose child tries a predecessor (where light paths
+// stop at a depth, a light birth is a light *technique* birth only with part of D_l; alpha splits
 // the light mass between "technique" and "not" in that proportion, so only the forced case
-// sees it),
+// sees it; this is exact for one forced segment only: a run of n forced segments needs light
+// generators n levels short of the depth limit, and a run that cannot fit loses its alpha mass,
+// so segment filtering's light paths have no depth limit, Russian roulette instead, and there
+// D_lt = D_l),
 // and r_k = 1 / D(s_k) unless forced. The camera side needs no pair density at all (alpha
 // conditions on the actual predecessor, whose camera technique is in D_c already, so a camera
 // technique that also draws next-event segments only has to be in D); the light side needs

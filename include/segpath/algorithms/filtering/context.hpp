@@ -37,9 +37,6 @@ struct Context {
 
   /// N_L: light paths per iteration.
   [[nodiscard]] std::uint64_t light_paths() const noexcept { return light_path_count(scene, techniques); }
-  /// Whether a light technique sample at light-path depth `depth` draws a segment that itself
-  /// tries a predecessor (trace_light_path's depth rule; D_lt of the path-conditioned weighting).
-  [[nodiscard]] bool deep(std::uint32_t depth) const noexcept { return std::size_t(depth) + 2 < options.max_length; }
 };
 
 }  // namespace segpath::filtering

@@ -63,8 +63,8 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
   const auto clusters = clustering.clusters();
   const auto refs = clustering.refs();
   if (side) light_side_start(ctx, *side, parallel_for);
-  // A light technique sample u whose draw would itself try a predecessor (D_lt, add_light_term).
-  const auto deep = [&](std::uint32_t u) { return side && ctx.deep(side->depth[u]); };
+  // Light technique densities carry the roulette's c (TechniqueSet::light_continuation).
+  const T continuation = T(ctx.techniques.light_continuation);
   std::vector<T> camera_sum(pool.size(), T(0)), light_sum(pool.size(), T(0));
   std::vector<std::uint64_t> pairs(clusters.size(), 0);
   std::vector<std::uint8_t> camera_fact(clusters.size(), 0), light_fact(clusters.size(), 0);
@@ -127,20 +127,18 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
       if (ctx.options.factorise) common = common_lambertian_normal(scene, x_of, refs, cl.begin, cl.middle);
       light_fact[c] = common ? 1 : 0;
       const SurfacePoint<T>& any_x = pool.segments[refs[cl.begin].segment].x;
-      std::uint32_t valid_light = 0, valid_deep = 0;
+      std::uint32_t valid_light = 0;
       if (common)
         for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
           const std::uint32_t t = refs[q].segment;
-          if ((pool.flags[t] & light_technique) && glm::dot(pool.first_direction[t], any_x.normal) > one_sided_epsilon<T>) {
+          if ((pool.flags[t] & light_technique) && glm::dot(pool.first_direction[t], any_x.normal) > one_sided_epsilon<T>)
             ++valid_light;
-            valid_deep += deep(t) ? 1 : 0;
-          }
         }
       for (std::uint32_t r = cl.middle; r < cl.end; ++r) {
         const std::uint32_t sp = refs[r].segment;
         if (!light_reachable(pool, sp)) continue;
         const Vec3<T> to_sensor = -pool.last_direction[sp];
-        const T scale = cl.kernel * light_measure<Scn>(pool, sp);
+        const T scale = continuation * cl.kernel * light_measure<Scn>(pool, sp);
         T sum = T(0);
         if (common) {
           const T cosine = glm::dot(to_sensor, *common);
@@ -148,13 +146,9 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
           const bool self = clustering.cluster_of_x(sp) == c && (pool.flags[sp] & light_technique) &&
                             glm::dot(pool.first_direction[sp], any_x.normal) > one_sided_epsilon<T>;
           const std::uint32_t light_count = valid_light - (self ? 1 : 0);
-          const std::uint32_t deep_count = valid_deep - (self && deep(sp) ? 1 : 0);
           if (glm::dot(to_sensor, any_x.normal) > one_sided_epsilon<T> && cosine > T(0)) {
             sum = T(light_count) * cosine * inv_pi<T>;
-            if (side && scale * cosine > T(0)) {
-              side->terms[sp] += light_count;
-              side->technique_density[sp] += scale * T(deep_count) * cosine * inv_pi<T>;
-            }
+            if (side && scale * cosine > T(0)) side->terms[sp] += light_count;
           }
           pairs[c] += 1;
         } else {
@@ -164,14 +158,11 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
             const T pdf = light_technique_pdf(scene, pool, t, sp);
             sum += pdf;
             pairs[c] += 1;
-            if (side && scale * pdf > T(0)) {
-              side->terms[sp] += 1;
-              if (deep(t)) side->technique_density[sp] += scale * pdf;
-            }
+            if (side && scale * pdf > T(0)) side->terms[sp] += 1;
           }
         }
         light_sum[sp] = scale * sum;
-        if (side) side->density[sp] += light_sum[sp];
+        if (side) side->density[sp] += light_sum[sp], side->technique_density[sp] += light_sum[sp];
       }
     }
   });
@@ -240,7 +231,7 @@ void compute_densities(Context<Scn>& ctx, const DiskJunctions<typename Scn::Scal
         sum += light_technique_pdf(scene, pool, u, sp);
         pairs[c] += 1;
       }
-      if (sum > T(0)) light_sum[sp] = kernel * sum * light_measure<Scn>(pool, sp);
+      if (sum > T(0)) light_sum[sp] = T(ctx.techniques.light_continuation) * kernel * sum * light_measure<Scn>(pool, sp);
       if (bridges && bridge_reachable(pool, sp))
         bridge_sum[sp] = kernel * T(camera_points) * kernel * T(targets) / T(pool.bridge_targets);
       if (ctx.techniques.next_event) camera_points_at_x[sp] = kernel * T(camera_points);

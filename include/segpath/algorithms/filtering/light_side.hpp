@@ -25,7 +25,7 @@ inline constexpr std::uint16_t not_light_born = camera_born | bridge_segment | e
 template <Real T>
 struct LightSide {
   std::vector<T> density, technique_density;  ///< D_l, D_lt (propagation/path_conditioned.hpp)
-  std::vector<std::uint32_t> terms, depth;    ///< positive terms of D_l; light path depth (light start 1)
+  std::vector<std::uint32_t> terms;           ///< positive terms of D_l
   std::vector<std::uint8_t> flags;
 };
 /// q_l(s | s'), the one pair density of the weighting: the density with which a light
@@ -40,9 +40,11 @@ template <LightSampledScene Scn, Real T>
   const T q = scale * light_technique_pdf(scene, pool, sp, s);
   return std::isfinite(q) && q > T(0) ? q : T(0);
 }
+/// `continuation` is the roulette's c (TechniqueSet::light_continuation), part of every light
+/// predecessor's density.
 template <LightSampledScene Scn, Real T>
-[[nodiscard]] T light_pair_scale(const Pool<T, typename Scn::Spectrum>& pool, T kernel, std::uint32_t s) noexcept {
-  return light_reachable(pool, s) ? kernel * light_measure<Scn>(pool, s) : T(0);
+[[nodiscard]] T light_pair_scale(const Pool<T, typename Scn::Spectrum>& pool, T continuation, T kernel, std::uint32_t s) noexcept {
+  return light_reachable(pool, s) ? continuation * kernel * light_measure<Scn>(pool, s) : T(0);
 }
 
 /// The flags of the path-conditioned weighting and the light-start term of D_l (as
@@ -56,13 +58,6 @@ void light_side_start(const Context<Scn>& ctx, LightSide<typename Scn::Scalar>& 
   side.technique_density.assign(pool.size(), T(0));
   side.terms.assign(pool.size(), 0);
   side.flags.assign(pool.size(), 0);
-  // Light paths are pooled in path order (build_pool): a light predecessor follows the
-  // segment that drew it.
-  side.depth.assign(pool.size(), 0);
-  for (std::size_t i = 0; i < pool.size(); ++i) {
-    if (pool.flags[i] & light_start) side.depth[i] = 1;
-    else if (i > 0 && !(pool.flags[i] & not_light_born) && side.depth[i - 1] > 0) side.depth[i] = side.depth[i - 1] + 1;
-  }
   parallel_for(pool.size(), [&](std::size_t i) {
     const auto f = pool.flags[i];
     const Segment<T>& s = pool.segments[i];
@@ -76,18 +71,18 @@ void light_side_start(const Context<Scn>& ctx, LightSide<typename Scn::Scalar>& 
     if (!(std::isfinite(d) && d > T(0))) return;
     side.density[i] = d;
     side.terms[i] = 1;
-    if (2 < ctx.options.max_length) side.technique_density[i] = d;  // a light start tries a predecessor
+    side.technique_density[i] = d;  // light paths have no depth limit: D_lt = D_l
   });
 }
 
-/// One light technique sample u's term of D_l(s) (and of D_lt(s) if the segment u draws
-/// would itself try a predecessor: trace_light_path's depth rule).
-template <LightSampledScene Scn, Real T>
-void add_light_term(const Context<Scn>& ctx, LightSide<T>& side, std::uint32_t s, std::uint32_t u, T ql) noexcept {
+/// One light technique sample's term of D_l(s), and of D_lt(s) = D_l(s) (light paths have no
+/// depth limit, so every segment a light technique draws tries a predecessor in turn).
+template <Real T>
+void add_light_term(LightSide<T>& side, std::uint32_t s, T ql) noexcept {
   if (!(ql > T(0))) return;
   side.density[s] += ql;
   side.terms[s] += 1;
-  if (ctx.deep(side.depth[u])) side.technique_density[s] += ql;
+  side.technique_density[s] += ql;
 }
 
 /// The light side of every denominator, disk support.
@@ -99,11 +94,11 @@ void light_side(const Context<Scn>& ctx, const DiskJunctions<typename Scn::Scala
   light_side_start(ctx, side, parallel_for);
   parallel_for(pool.size(), [&](std::size_t i) {
     const auto s = std::uint32_t(i);
-    const T scale = light_pair_scale<Scn>(pool, junctions.kernel(), s);
+    const T scale = light_pair_scale<Scn>(pool, T(ctx.techniques.light_continuation), junctions.kernel(), s);
     if (!(scale > T(0))) return;
     for (const std::uint32_t u : junctions.starting_near(s)) {
       if (!(pool.flags[u] & light_technique)) continue;
-      add_light_term(ctx, side, s, u, light_pair_density(ctx.scene, pool, scale, s, u));
+      add_light_term(side, s, light_pair_density(ctx.scene, pool, scale, s, u));
     }
   });
 }

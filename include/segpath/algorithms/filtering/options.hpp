@@ -56,6 +56,12 @@ struct FilteringOptions {
   FilteringMode mode = FilteringMode::bdpf;
   std::size_t max_length = 10;  ///< segments per path (>= 2): propagation runs max_length - 1 iterations
   T light_path_ratio = T(1);  ///< beta: light paths per pixel per iteration (PhF, BDPF); 1: BDPF's best at equal time on box 1
+  /// PhF, BDPF: the probability c that a light path draws a predecessor at a non-delta vertex
+  /// (Russian roulette, the same at every depth). Light paths have no depth limit, so whether a
+  /// light-born segment can draw a predecessor never depends on its depth: every light-born
+  /// segment at a non-delta surface is a light technique sample, of density c q. Negative:
+  /// (max_length - 2) / (max_length - 1), light paths of max_length - 1 segments on average.
+  T light_continuation = T(-1);
   T initial_cell_size = 0;       ///< voxel size of iteration 1; 0: 4x the average pixel footprint
   T alpha = T(0.67);             ///< progressive shrinking of the voxel (PPM schedule)
   bool factorise = true;         ///< use the O(n) sums in factorisable clusters (voxel support)
@@ -122,6 +128,9 @@ void validate(const FilteringOptions<T>& options) {
   if (options.bridges && options.mode != FilteringMode::bdpf)
     throw std::invalid_argument(std::string("segpath::SegmentFiltering: bridge segments join camera and light paths, "
                                             "so they need mode bdpf, got ") + to_string(options.mode));
+  if (!(options.light_continuation < T(1)) || std::isnan(options.light_continuation))
+    throw std::invalid_argument("segpath::SegmentFiltering: the light continuation probability must be < 1 (negative: automatic), got " +
+                                std::to_string(options.light_continuation));
   if (!(options.alpha > T(0) && options.alpha < T(1)))
     throw std::invalid_argument("segpath::SegmentFiltering: alpha must lie in (0, 1), got " + std::to_string(options.alpha));
 }

@@ -162,13 +162,20 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   // (light_measure), so only area lights continue, and a delta transmission (whose radiance
   // and importance throughputs differ) ends the path.
   const bool chains = !first->delta && r.segment.y.kind == PointKind::surface;
-  for (std::size_t pieces = 1;; ++pieces) {
+  // No depth limit (Russian roulette with c at every non-delta vertex, TechniqueSet::
+  // light_continuation): a depth limit would make a light-born segment's ability to draw a
+  // predecessor depend on its depth, which the path-conditioned weighting cannot see (it deduces
+  // "s was drawn by its chain successor" and then needs the successor's whole run of light
+  // ancestors to fit; docs/bias-notes.md). Only the delta bounces of one chain are capped.
+  const T continuation = T(ctx.techniques.light_continuation);
+  for (std::size_t delta_bounces = 0;;) {
     const SurfacePoint<T>& x = r.segment.x;
     std::optional<BsdfSample<S>> prev;
-    const bool attempted = x.kind == PointKind::surface && pieces + 1 < ctx.options.max_length;
+    const bool attempted = x.kind == PointKind::surface && continuation > T(0);
     if (attempted)
       prev = bsdf.sample(BsdfSampleQuery<T>{x, r.first_direction, uniform2<T>(rng), rng.template uniform<T>(), Transport::importance});
-    if (chains && prev && prev->delta && prev->pdf > T(0) && !is_transmission(x, r.first_direction, prev->direction)) {
+    if (chains && prev && prev->delta && prev->pdf > T(0) && !is_transmission(x, r.first_direction, prev->direction) &&
+        ++delta_bounces < ctx.options.max_length) {
       const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{x.position, prev->direction}});
       if (!hit) return;  // the chain leaves the scene: no sensor segment can join it
       r.chain = r.chain * (prev->value * (std::abs(glm::dot(prev->direction, x.normal)) / prev->pdf));
@@ -182,7 +189,8 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
     // delta surface that does not continue the chain ends the light path.
     const bool tries_predecessor = attempted && ctx.techniques.light_predecessors && !(prev && prev->delta);
     if (tries_predecessor) r.flags |= light_technique;
-    const bool continues = tries_predecessor && prev && prev->pdf > T(0);
+    // The roulette is part of the draw: a technique sample whose coin fails is a failed draw.
+    const bool continues = tries_predecessor && prev && prev->pdf > T(0) && rng.template uniform<T>() < continuation;
     const auto index = std::uint32_t(out.size());
     out.push_back(r);
     if (!continues) return;
@@ -196,6 +204,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
     predecessor.geometry = geometry_term(predecessor.segment, -prev->direction, hit->distance);
     predecessor.parent = index;
     r = predecessor;
+    delta_bounces = 0;
   }
 }
 

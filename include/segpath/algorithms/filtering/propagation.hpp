@@ -92,10 +92,10 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
   parallel_for(pool.size(), [&](std::size_t i) {
     const auto s = std::uint32_t(i);
     if constexpr (!Support::factorisable) {
-      scale[s] = light_pair_scale<Scn>(pool, support.kernel(), s);
+      scale[s] = light_pair_scale<Scn>(pool, T(ctx.techniques.light_continuation), support.kernel(), s);
     } else {
       const std::uint32_t c = support.cluster_of_y(s);
-      if (c != no_cluster) scale[s] = light_pair_scale<Scn>(pool, support.clusters()[c].kernel, s);
+      if (c != no_cluster) scale[s] = light_pair_scale<Scn>(pool, T(ctx.techniques.light_continuation), support.clusters()[c].kernel, s);
     }
   });
   auto light_pair = [&](std::uint32_t s, std::uint32_t sp) -> T { return light_pair_density(scene, pool, scale[s], s, sp); };

@@ -20,6 +20,9 @@ struct TechniqueSet {
   double light_paths_per_pixel = 0;
   /// Approximate predecessors (N32, N33) from every light technique point: light paths.
   bool light_predecessors = false;
+  /// c: the probability that a light path draws a predecessor at a non-delta vertex (Russian
+  /// roulette at every depth, no depth limit); a light predecessor's density carries it.
+  double light_continuation = 0;
   /// Bridges (N34) from every camera technique point to a light-born start.
   bool bridges = false;
 };
@@ -34,6 +37,9 @@ template <Real T>
   set.next_event = camera && o.next_event;
   set.light_paths_per_pixel = light ? double(o.light_path_ratio) : 0.0;
   set.light_predecessors = light;
+  set.light_continuation = !light                      ? 0.0
+                           : o.light_continuation >= T(0) ? double(o.light_continuation)
+                                                          : double(o.max_length - 2) / double(o.max_length - 1);
   set.bridges = o.mode == FilteringMode::bdpf && o.bridges;
   return set;
 }
