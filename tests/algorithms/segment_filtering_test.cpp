@@ -242,10 +242,8 @@ void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, d
     filtering::cluster(ctx, filtering::grid(o, cell, ctx.stream), clustering, SerialFor{});
     filtering::LightSide<double> side;  // the path-conditioned weighting's light side, computed alongside
     filtering::compute_densities(ctx, clustering, SerialFor{}, &side);
-    auto kernel = [&](std::uint32_t end, std::uint32_t start) {
-      const std::uint32_t c = clustering.cluster_of_y(end);
-      return c != no_cluster && c == clustering.cluster_of_x(start) ? clustering.clusters()[c].kernel : 0.0;
-    };
+    const auto kernel = testing::voxel_kernel_oracle(pool, filtering::grid(o, cell, ctx.stream),
+                                                     [&](const SurfacePoint<double>& p) { return canonical(scene, p); });
     INFO("bridges " << bridges << ", next-event " << next_event << ", factorise " << factorise);
     const auto [checked, with_techniques] = testing::check_denominators(filter, scene, pool, kernel);
     testing::check_light_side(filter, scene, pool, side, kernel);
@@ -502,10 +500,8 @@ TEST_CASE("a user's own technique joins the technique set: its density enters ev
         filtering::cluster(ctx, filtering::grid(o, 0.4, ctx.stream), clustering, SerialFor{});
         filtering::LightSide<double> side;
         filtering::compute_densities(ctx, clustering, SerialFor{}, &side);
-        auto kernel = [&](std::uint32_t end, std::uint32_t start) {
-          const std::uint32_t c = clustering.cluster_of_y(end);
-          return c != no_cluster && c == clustering.cluster_of_x(start) ? clustering.clusters()[c].kernel : 0.0;
-        };
+        const auto kernel = testing::voxel_kernel_oracle(pool, filtering::grid(o, 0.4, ctx.stream),
+                                                         [&](const SurfacePoint<double>& p) { return canonical(scene, p); });
         checked = testing::check_denominators(filter, scene, pool, kernel, extra_of(pool));
         testing::check_light_side(filter, scene, pool, side, kernel);
       } else {

@@ -357,10 +357,9 @@ TEST_CASE("BDPF denominators on box 1 count chains from both sides and next-even
   CHECK(camera_chains > 20);
   CHECK(light_chains > 20);
   CHECK(pool.next_event_segments > 200);
-  auto kernel = [&](std::uint32_t end, std::uint32_t start) {
-    const std::uint32_t c = clustering.cluster_of_y(end);
-    return c != segpath::no_cluster && c == clustering.cluster_of_x(start) ? double(clustering.clusters()[c].kernel) : 0.0;
-  };
+  const auto kernel = segpath::testing::voxel_kernel_oracle(
+      pool, segpath::filtering::grid(filter.options(), 0.3f, clustered.context.stream),
+      [](const segpath::SurfacePoint<float>& p) { return p.position; });
   const auto [checked, with_techniques] = segpath::testing::check_denominators(filter, scene, pool, kernel);
   segpath::testing::check_light_side(filter, scene, pool, side, kernel);
   CHECK(checked == pool.size());

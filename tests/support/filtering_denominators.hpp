@@ -6,6 +6,7 @@
 #include <segpath/algorithms/segment_filtering.hpp>
 
 #include <cstdint>
+#include <map>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -13,6 +14,45 @@
 #include "support/catch.hpp"
 
 namespace segpath::testing {
+
+/// The voxel kernel recomputed from its definition (SPEC 1.2), not read from the clustering:
+/// two ends join when their (canonical) positions and normals share a key of `grid`, with
+/// K = 1 / (area of the plane through the mean position and mean normal of every pooled end
+/// with that key, clipped to the voxel). Call it as kernel(end, start) for check_denominators.
+template <class Pool, class Grid, class Canonical>
+auto voxel_kernel_oracle(const Pool& pool, const Grid& grid, const Canonical& canonical) {
+  struct Sums {
+    glm::dvec3 position{0}, normal{0};
+    double count = 0;
+  };
+  using Point = std::remove_cvref_t<decltype(pool.segments[0].x)>;
+  auto key_of = [grid, canonical](const Point& p) {  // copies: the oracle outlives its arguments
+    Point q = p;
+    q.position = canonical(p);
+    return grid.key(q);
+  };
+  std::map<VoxelKey, Sums> voxels;
+  for (std::size_t i = 0; i < pool.size(); ++i)
+    for (const Point* p : {&pool.segments[i].x, &pool.segments[i].y}) {
+      const auto k = key_of(*p);
+      if (!k.valid) continue;
+      Sums& v = voxels[k.key];
+      v.position += glm::dvec3(canonical(*p));
+      v.normal += glm::dvec3(p->normal);
+      v.count += 1;
+    }
+  std::map<VoxelKey, double> kernel;
+  for (const auto& [key, v] : voxels) {
+    const auto box = grid.bounds(key);
+    const double area = plane_box_area(glm::dvec3(v.position / v.count), v.normal, glm::dvec3(box[0]), glm::dvec3(box[1]));
+    kernel[key] = area > 0 ? 1 / area : 0.0;
+  }
+  return [&pool, key_of, kernel = std::move(kernel)](std::uint32_t end, std::uint32_t start) {
+    const auto a = key_of(pool.segments[end].y), b = key_of(pool.segments[start].x);
+    if (!a.valid || !b.valid || !(a.key == b.key)) return 0.0;
+    return kernel.at(a.key);
+  };
+}
 
 /// `kernel(end, start)` is the kernel value joining the end y_t of one pooled segment to the
 /// start x_s of another (0 outside the support); a segment is never its own technique sample. Checks D(s) for every segment within 1e-12
