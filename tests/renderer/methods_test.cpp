@@ -333,37 +333,45 @@ void check_filtering_bias(const std::string& name, std::uint64_t iterations) {
 
 }  // namespace
 
-// Box 1's mirror sphere makes chains on both sides: camera chains through the mirror, and
-// light-born chains light -> mirror -> diffuse (the caustic on the ceiling), whose densities
-// are measured by etendue (area x solid angle at x). Every denominator, recomputed by
-// enumerating the pool, with next-event segments on.
-TEST_CASE("BDPF denominators on box 1 count chains from both sides and next-event segments", "[renderer]") {
-  const RenderScene cornell = renderer::make_cornell(1, 16, 16);
-  const renderer::ThreadCountingScene scene(cornell);
-  segpath::FilteringOptions<float> o;
-  o.light_path_ratio = 1;
-  o.next_event = true;
-  const Filter filter(o);
-  ClusteredPool clustered = clustered_pool(filter, scene, 0.3f);
-  const auto& pool = clustered.context.pool;
-  const auto& clustering = clustered.clustering;
-  segpath::filtering::LightSide<float> side;
-  segpath::filtering::compute_densities(clustered.context, clustering, segpath::SerialFor{}, &side);
-  std::size_t camera_chains = 0, light_chains = 0;
-  for (std::size_t i = 0; i < pool.size(); ++i) {
-    if (!(pool.flags[i] & segpath::filtering::chain_segment)) continue;
-    ++((pool.flags[i] & segpath::filtering::camera_born) ? camera_chains : light_chains);
+// The mirror and glass spheres make chains on both sides: camera chains through them, and
+// light-born chains (light -> mirror -> diffuse, the caustic on box 1's ceiling, and through the
+// glass sphere, in and out), whose densities are measured by etendue (area x solid angle at x).
+// Every denominator, recomputed by enumerating the pool, with next-event segments on, on every
+// box: area light (1), sun (0), point light (2), sky (3).
+TEST_CASE("BDPF denominators on every box count chains from both sides and next-event segments", "[renderer]") {
+  for (const int box : {1, 0, 2, 3}) {
+    INFO("box " << box);
+    const RenderScene cornell = renderer::make_cornell(box, 16, 16);
+    const renderer::ThreadCountingScene scene(cornell);
+    segpath::FilteringOptions<float> o;
+    o.light_path_ratio = 1;
+    o.next_event = true;
+    const Filter filter(o);
+    ClusteredPool clustered = clustered_pool(filter, scene, 0.3f);
+    const auto& pool = clustered.context.pool;
+    const auto& clustering = clustered.clustering;
+    segpath::filtering::LightSide<float> side;
+    segpath::filtering::compute_densities(clustered.context, clustering, segpath::SerialFor{}, &side);
+    std::size_t camera_chains = 0, light_chains = 0, light_transmission_chains = 0;
+    for (std::size_t i = 0; i < pool.size(); ++i) {
+      if (!(pool.flags[i] & segpath::filtering::chain_segment)) continue;
+      const bool camera = (pool.flags[i] & segpath::filtering::camera_born) != 0;
+      ++(camera ? camera_chains : light_chains);
+      light_transmission_chains += !camera && (pool.flags[i] & segpath::filtering::transmission_chain);
+    }
+    // The sky's light paths start on a disk around the whole box: few of them hit the spheres.
+    CHECK(camera_chains > 20);
+    CHECK(light_chains > (box == 3 ? 4 : 20));
+    if (box != 1) CHECK(light_transmission_chains > (box == 3 ? 1 : 5));  // boxes 0, 2, 3 have the glass sphere
+    CHECK(pool.next_event_segments > (box == 3 ? 100 : 200));
+    const auto kernel = segpath::testing::voxel_kernel_oracle(
+        pool, segpath::filtering::grid(filter.options(), 0.3f, clustered.context.stream),
+        [](const segpath::SurfacePoint<float>& p) { return p.position; });
+    const auto [checked, with_techniques] = segpath::testing::check_denominators(filter, scene, pool, kernel);
+    segpath::testing::check_light_side(filter, scene, pool, side, kernel);
+    CHECK(checked == pool.size());
+    CHECK(with_techniques > checked / 10);
   }
-  CHECK(camera_chains > 20);
-  CHECK(light_chains > 20);
-  CHECK(pool.next_event_segments > 200);
-  const auto kernel = segpath::testing::voxel_kernel_oracle(
-      pool, segpath::filtering::grid(filter.options(), 0.3f, clustered.context.stream),
-      [](const segpath::SurfacePoint<float>& p) { return p.position; });
-  const auto [checked, with_techniques] = segpath::testing::check_denominators(filter, scene, pool, kernel);
-  segpath::testing::check_light_side(filter, scene, pool, side, kernel);
-  CHECK(checked == pool.size());
-  CHECK(with_techniques > checked / 10);
 }
 
 // Next-event segments end on box 1's emitter in crowds, and the emitter reflects nothing

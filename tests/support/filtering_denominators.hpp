@@ -83,13 +83,14 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
     const bool on_surface = seg.x.kind == PointKind::surface;
     const bool plain = !chain && !(f & filtering::delta_light) && on_surface;
     // What a light technique can draw: any segment from a surface point, through delta
-    // reflections (a chain) but not a delta transmission, to a non-Dirac end.
-    const bool light_drawable = !(f & (filtering::transmission_chain | filtering::delta_light)) && on_surface;
+    // reflections and transmissions (a chain), to a non-Dirac end.
+    const bool light_drawable = !(f & filtering::delta_light) && on_surface;
     // Area x solid angle at y to the segment's measure: area at x, or for a chain area x solid
     // angle at x (etendue: cos_y dA_y dw_y = cos_x dA_x dw_x).
     const double to_segment_measure =
         chain ? double(std::abs(glm::dot(seg.x.normal, pool.first_direction[s]))) / double(std::abs(glm::dot(seg.y.normal, pool.last_direction[s])))
-              : double(solid_angle_to_area(T(1), seg.y, seg.x));
+        : seg.y.kind == PointKind::direction ? double(std::abs(glm::dot(seg.x.normal, pool.last_direction[s])))  // no 1 / d^2 at infinity
+                                             : double(solid_angle_to_area(T(1), seg.y, seg.x));
     double d = 0, camera_points = 0;
     int techniques = 0;
     for (std::uint32_t t = 0; t < pool.size(); ++t) {
@@ -134,7 +135,9 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
     }
     // A light start: plain segments and light-born chains (from area lights only).
     if (on_surface && (!chain || (light_drawable && seg.y.kind == PointKind::surface))) {
-      const auto e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{seg.y, -pool.last_direction[s]});
+      // The direction it leaves in; a distant end's emitter reads a point of the ray instead.
+      const Vec3<T> leaving = seg.y.kind == PointKind::direction ? seg.x.position : -pool.last_direction[s];
+      const auto e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{seg.y, leaving});
       d += n_light * double(e.position) * double(e.direction) * to_segment_measure;
     }
     // The user's techniques: straight segments only.
@@ -168,14 +171,17 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
     const auto f = pool.flags[s];
     const bool chain = (f & filtering::chain_segment) != 0;
     const bool on_surface = seg.x.kind == PointKind::surface;
-    const bool light_drawable = !(f & (filtering::transmission_chain | filtering::delta_light)) && on_surface;
+    const bool light_drawable = !(f & filtering::delta_light) && on_surface;
     const double to_segment_measure =
         chain ? double(std::abs(glm::dot(seg.x.normal, pool.first_direction[s]))) / double(std::abs(glm::dot(seg.y.normal, pool.last_direction[s])))
-              : double(solid_angle_to_area(T(1), seg.y, seg.x));
+        : seg.y.kind == PointKind::direction ? double(std::abs(glm::dot(seg.x.normal, pool.last_direction[s])))  // no 1 / d^2 at infinity
+                                             : double(solid_angle_to_area(T(1), seg.y, seg.x));
     double dl = 0;
     std::uint32_t terms = 0;
     if (on_surface && (!chain || (light_drawable && seg.y.kind == PointKind::surface))) {
-      const auto e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{seg.y, -pool.last_direction[s]});
+      // The direction it leaves in; a distant end's emitter reads a point of the ray instead.
+      const Vec3<T> leaving = seg.y.kind == PointKind::direction ? seg.x.position : -pool.last_direction[s];
+      const auto e = scene.emitter().pdf_emission(EmissionPdfQuery<T>{seg.y, leaving});
       const double start = n_light * double(e.position) * double(e.direction) * to_segment_measure;
       if (start > 0) {
         dl += start;

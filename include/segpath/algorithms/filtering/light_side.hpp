@@ -36,7 +36,7 @@ struct LightSide {
 template <LightSampledScene Scn, Real T>
 [[nodiscard]] T light_pair_density(const Scn& scene, const Pool<T, typename Scn::Spectrum>& pool, T scale, std::uint32_t s,
                                    std::uint32_t sp) noexcept {
-  if (!(scale > T(0)) || pool.segments[sp].x.kind != PointKind::surface || (pool.flags[sp] & transmission_chain)) return T(0);
+  if (!(scale > T(0)) || pool.segments[sp].x.kind != PointKind::surface) return T(0);
   const T q = scale * light_technique_pdf(scene, pool, sp, s);
   return std::isfinite(q) && q > T(0) ? q : T(0);
 }
@@ -65,7 +65,7 @@ void light_side_start(const Context<Scn>& ctx, LightSide<typename Scn::Scalar>& 
     if (!(f & not_light_born)) flags |= conditioned_light_born;
     if (f & light_technique) flags |= conditioned_light_technique | conditioned_potential;
     // A light path could have reached x (through delta reflections too) and tried a predecessor there.
-    if (s.x.kind == PointKind::surface && !(f & transmission_chain)) flags |= conditioned_potential;
+    if (s.x.kind == PointKind::surface) flags |= conditioned_potential;
     side.flags[i] = flags;
     const T d = light_start_density(ctx.scene, pool, i, light_paths);
     if (!(std::isfinite(d) && d > T(0))) return;

@@ -157,11 +157,15 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   // G in the segment's product measure; for a distant light the end at infinity drops 1/d^2.
   r.geometry = geometry_term(first->segment);
   const auto& bsdf = scene.bsdf();
-  // Through delta reflections the segment continues into a light-born chain, measured like
-  // the camera's (area x solid angle at x); its density needs the light end's area measure
-  // (light_measure), so only area lights continue, and a delta transmission (whose radiance
-  // and importance throughputs differ) ends the path.
-  const bool chains = !first->delta && r.segment.y.kind == PointKind::surface;
+  // Through delta reflections a segment continues into a light-born chain, measured like the
+  // camera's (area x solid angle at x). Its density needs its light-side end's area measure
+  // (light_measure, by etendue): a light predecessor's end is a surface point whatever the
+  // light, so every predecessor chains, but the light start chains only from an area light (a
+  // Dirac light's chain through a curved mirror has no local density). Through delta
+  // transmissions too: where the chain's two ends lie in one medium (both outside a glass
+  // object), its importance throughput is its radiance throughput (the (eta_i / eta_t)^2 of
+  // each refraction cancel in and out) and the etendue's n^2 cancels; docs/filtering.md.
+  bool chains = !first->delta && r.segment.y.kind == PointKind::surface;
   // No depth limit (Russian roulette with c at every non-delta vertex, TechniqueSet::
   // light_continuation): a depth limit would make a light-born segment's ability to draw a
   // predecessor depend on its depth, which the path-conditioned weighting cannot see (it deduces
@@ -174,8 +178,8 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
     const bool attempted = x.kind == PointKind::surface && continuation > T(0);
     if (attempted)
       prev = bsdf.sample(BsdfSampleQuery<T>{x, r.first_direction, uniform2<T>(rng), rng.template uniform<T>(), Transport::importance});
-    if (chains && prev && prev->delta && prev->pdf > T(0) && !is_transmission(x, r.first_direction, prev->direction) &&
-        ++delta_bounces < ctx.options.max_length) {
+    if (chains && prev && prev->delta && prev->pdf > T(0) && ++delta_bounces < ctx.options.max_length) {
+      if (is_transmission(x, r.first_direction, prev->direction)) r.flags |= transmission_chain;
       const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{x.position, prev->direction}});
       if (!hit) return;  // the chain leaves the scene: no sensor segment can join it
       r.chain = r.chain * (prev->value * (std::abs(glm::dot(prev->direction, x.normal)) / prev->pdf));
@@ -205,6 +209,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
     predecessor.parent = index;
     r = predecessor;
     delta_bounces = 0;
+    chains = true;
   }
 }
 

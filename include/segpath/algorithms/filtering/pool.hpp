@@ -23,7 +23,7 @@ enum PoolFlag : std::uint16_t {
   light_start = 32,         ///< drawn by the light-start sampler
   delta_light = 64,         ///< its light end is a Dirac (point light, sun)
   bridge_segment = 128,     ///< drawn by the bridge technique
-  transmission_chain = 256, ///< a chain through a delta transmission (camera side only)
+  transmission_chain = 256, ///< a chain through a delta transmission
   extra_technique = 512,    ///< drawn by a technique of the user's list (FilteringTechnique)
 };
 
@@ -95,16 +95,16 @@ void append(Pool<T, S>& pool, const std::vector<std::vector<Record<T, S>>>& chun
 }
 
 // Which segments each conditional technique can produce: a camera successor any segment but
-// one with a Dirac light end (N31); a light predecessor ends its ray at a surface hit, so never
-// a segment whose x is off the manifold (a sensor segment), a chain through a delta
-// transmission, or a Dirac light end; a bridge any straight segment between two surface points.
+// one with a Dirac light end (N31); a light predecessor (or the light start, through delta
+// bounces) ends its ray at a surface hit, so never a segment whose x is off the manifold (a
+// sensor segment) or a Dirac light end; a bridge any straight segment between two surface points.
 template <class Pl>
 [[nodiscard]] bool camera_reachable(const Pl& pool, std::size_t s) noexcept {
   return !(pool.flags[s] & delta_light);
 }
 template <class Pl>
 [[nodiscard]] bool light_reachable(const Pl& pool, std::size_t s) noexcept {
-  return !(pool.flags[s] & (transmission_chain | delta_light)) && pool.segments[s].x.kind == PointKind::surface;
+  return !(pool.flags[s] & delta_light) && pool.segments[s].x.kind == PointKind::surface;
 }
 template <class Pl>
 [[nodiscard]] bool bridge_reachable(const Pl& pool, std::size_t s) noexcept {
