@@ -146,6 +146,15 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
       d += p;
       techniques += p > 0;
     }
+    // A Dirac light's chain (point light or sun through delta bounces): only the light start
+    // draws it, with a density a local computation cannot give (a curved mirror's Jacobian), so
+    // every other technique must give it 0 and the draw's N_L p is kept.
+    if (filtering::dirac_chain(pool, s)) {
+      CHECK(d == 0.0);
+      CHECK(pool.density[s] > 0);
+      ++checked;
+      continue;
+    }
     CHECK(double(pool.density[s]) == Approx(d).epsilon(tolerance).margin(1e-300));
     ++checked;
     if (techniques > 1) ++with_techniques;
@@ -188,6 +197,7 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
         ++terms;
       }
     }
+    if (filtering::dirac_chain(pool, s)) dl += double(pool.density[s]), ++terms;  // the light start's, kept
     if (light_drawable)
       for (std::uint32_t u = 0; u < pool.size(); ++u) {
         if (!(pool.flags[u] & filtering::light_technique) || u == s) continue;

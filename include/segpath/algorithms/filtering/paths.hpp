@@ -160,12 +160,16 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   // Through delta reflections a segment continues into a light-born chain, measured like the
   // camera's (area x solid angle at x). Its density needs its light-side end's area measure
   // (light_measure, by etendue): a light predecessor's end is a surface point whatever the
-  // light, so every predecessor chains, but the light start chains only from an area light (a
-  // Dirac light's chain through a curved mirror has no local density). Through delta
+  // light, so every predecessor chains, and so does the light start from an area light. From a
+  // Dirac light (point, sun) the chain has no local density (a curved mirror's Jacobian enters)
+  // but only the light start draws it: a dirac_chain keeps the first segment's G and N_L p
+  // (pool.hpp). A sky's chain would need both sides' densities and its disk point: it ends the
+  // path (camera chains to the sky carry it). Through delta
   // transmissions too: where the chain's two ends lie in one medium (both outside a glass
   // object), its importance throughput is its radiance throughput (the (eta_i / eta_t)^2 of
   // each refraction cancel in and out) and the etendue's n^2 cancels; docs/filtering.md.
-  bool chains = !first->delta && r.segment.y.kind == PointKind::surface;
+  bool chains = first->delta || r.segment.y.kind == PointKind::surface;
+  if (first->delta) r.density = T(ctx.light_paths()) * first->pdf;  // used if it becomes a chain
   // No depth limit (Russian roulette with c at every non-delta vertex, TechniqueSet::
   // light_continuation): a depth limit would make a light-born segment's ability to draw a
   // predecessor depend on its depth, which the path-conditioned weighting cannot see (it deduces
@@ -186,7 +190,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
       r.segment.x = hit->point;
       r.first_direction = -prev->direction;
       r.flags |= chain_segment;
-      r.geometry = endpoint_cosine(r.segment.x, r.first_direction);
+      if (!(r.flags & delta_light)) r.geometry = endpoint_cosine(r.segment.x, r.first_direction);
       continue;
     }
     // A technique sample whether or not its draw succeeded (see trace_camera_path); a
@@ -287,7 +291,6 @@ void finish_pool(Context<Scn>& ctx, const P& parallel_for) {
   for_blocks(pool.size(), parallel_for, [&](std::size_t i) {
     pool.emitted[i] = emitter.radiance(EmissionQuery<T>{pool.segments[i].y, -pool.last_direction[i]}) * pool.chain[i];
   });
-  pool.density.assign(pool.size(), T(0));
 }
 
 }  // namespace segpath::filtering

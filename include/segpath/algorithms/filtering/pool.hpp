@@ -58,6 +58,9 @@ struct Record {
   Vec3<T> first_direction, last_direction;
   S chain;
   T geometry = 0, sensor_weight = 0;
+  /// Only for a Dirac chain (dirac_chain): its MMIS denominator, N_L times its first segment's
+  /// density; every other segment's is computed from the pool (densities.hpp).
+  T density = 0;
   std::uint32_t pixel = 0;
   std::uint32_t parent = no_parent;  ///< index in the same generator's record list
   std::uint16_t flags = 0;
@@ -73,6 +76,7 @@ void append(Pool<T, S>& pool, const std::vector<std::vector<Record<T, S>>>& chun
   const std::size_t total = base.back();
   pool.segments.resize(total), pool.first_direction.resize(total), pool.last_direction.resize(total);
   pool.chain.resize(total), pool.geometry.resize(total), pool.sensor_weight.resize(total), pool.pixel.resize(total);
+  pool.density.resize(total);
   pool.parent.resize(total), pool.flags.resize(total);
   std::vector<std::uint64_t> next_event(chunks.size(), 0);
   parallel_for(chunks.size(), [&](std::size_t c) {
@@ -84,6 +88,7 @@ void append(Pool<T, S>& pool, const std::vector<std::vector<Record<T, S>>>& chun
       pool.chain[i] = r.chain;
       pool.geometry[i] = r.geometry;
       pool.sensor_weight[i] = r.sensor_weight;
+      pool.density[i] = r.density;
       pool.pixel[i] = r.pixel;
       pool.parent[i] = r.parent == no_parent ? no_parent : std::uint32_t(base[c] + r.parent);
       pool.flags[i] = r.flags;
@@ -115,6 +120,14 @@ template <class Pl>
 template <class Pl>
 [[nodiscard]] bool is_bridge_target(const Pl& pool, std::size_t i) noexcept {
   return !(pool.flags[i] & (camera_born | bridge_segment | extra_technique)) && pool.segments[i].x.kind == PointKind::surface;
+}
+/// A light start from a Dirac light (point light, sun) continued through delta bounces: no other
+/// technique draws such a chain (a camera chain cannot end on a Dirac), so its balance weight is
+/// 1 and its denominator, N_L times its first segment's density, is kept from the draw (its G is
+/// the first segment's: G w is the photon's 1 / (N_L p_position p_direction)).
+template <class Pl>
+[[nodiscard]] bool dirac_chain(const Pl& pool, std::size_t s) noexcept {
+  return (pool.flags[s] & (chain_segment | delta_light)) == (chain_segment | delta_light);
 }
 /// Whether a delta scattering at p from `fixed` to `sampled` crosses the surface.
 template <Real T>
