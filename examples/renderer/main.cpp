@@ -189,6 +189,8 @@ int run(const Options& o) {
   auto method = renderer::make_method(o.method, mo);
   if (!method) throw std::runtime_error("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
   const renderer::RenderScene scene = load_scene(o);
+  if (const auto family = renderer::unsampled_family(o.method, scene))
+    std::fprintf(stderr, "segpath-render: warning: %s\n", family->c_str());
 
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, o.threads);
   tbb::task_arena arena(int(o.threads));
