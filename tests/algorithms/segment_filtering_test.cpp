@@ -224,6 +224,19 @@ Vec3<double> canonical(const Scn& scene, const SurfacePoint<double>& p) {
   }
 }
 
+/// The disk support's predicate written out, not the junction lists the algorithm iterates
+/// over: an end y_t joins a start x_s within r (canonical positions), normals agreeing.
+template <class Scn, class Pool>
+auto disk_kernel(const Scn& scene, const Pool& pool, double r) {
+  return [&scene, &pool, r](std::uint32_t end, std::uint32_t start) {
+    const auto& y = pool.segments[end].y;
+    const auto& x = pool.segments[start].x;
+    if (y.kind != PointKind::surface || x.kind != PointKind::surface) return 0.0;
+    const Vec3<double> d = canonical(scene, x) - canonical(scene, y);
+    return glm::dot(d, d) < r * r && glm::dot(x.normal, y.normal) >= 0.5 ? 1 / (pi<double> * r * r) : 0.0;
+  };
+}
+
 template <class Scn>
 void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, double cell) {
   using Filter = SegmentFiltering<Scn>;
@@ -272,14 +285,7 @@ void check_disk_denominators(const Scn& scene, bool bridges, bool next_event, do
   DiskJunctions<double> junctions;
   filtering::join(ctx, r, junctions, SerialFor{});
   filtering::compute_densities(ctx, junctions, SerialFor{});
-  // The support predicate written out, not the junction lists the algorithm iterates over.
-  auto kernel = [&](std::uint32_t end, std::uint32_t start) {
-    const auto& y = pool.segments[end].y;
-    const auto& x = pool.segments[start].x;
-    if (y.kind != PointKind::surface || x.kind != PointKind::surface) return 0.0;
-    const Vec3<double> d = canonical(scene, x) - canonical(scene, y);
-    return glm::dot(d, d) < r * r && glm::dot(x.normal, y.normal) >= 0.5 ? 1 / (pi<double> * r * r) : 0.0;
-  };
+  const auto kernel = disk_kernel(scene, pool, r);
   INFO("bridges " << bridges << ", next-event " << next_event);
   const auto [checked, with_techniques] = testing::check_denominators(filter, scene, pool, kernel);
   CHECK(checked > 500);
@@ -509,13 +515,7 @@ TEST_CASE("a user's own technique joins the technique set: its density enters ev
         DiskJunctions<double> junctions;
         filtering::join(ctx, r, junctions, SerialFor{});
         filtering::compute_densities(ctx, junctions, SerialFor{});
-        auto kernel = [&](std::uint32_t end, std::uint32_t start) {
-          const auto& y = pool.segments[end].y;
-          const auto& x = pool.segments[start].x;
-          if (y.kind != PointKind::surface || x.kind != PointKind::surface) return 0.0;
-          const Vec3<double> d = canonical(scene, x) - canonical(scene, y);
-          return glm::dot(d, d) < r * r && glm::dot(x.normal, y.normal) >= 0.5 ? 1 / (pi<double> * r * r) : 0.0;
-        };
+        const auto kernel = disk_kernel(scene, pool, r);
         checked = testing::check_denominators(filter, scene, pool, kernel, extra_of(pool));
       }
       CHECK(checked.first == pool.size());

@@ -69,15 +69,21 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
   std::vector<std::uint64_t> pairs(clusters.size(), 0);
   std::vector<std::uint8_t> camera_fact(clusters.size(), 0), light_fact(clusters.size(), 0);
   std::vector<std::uint32_t> camera_points(clusters.size(), 0), bridge_targets(clusters.size(), 0);
+  // The segments of refs [begin, end) for which keep(segment) holds.
+  const auto count = [&](std::uint32_t begin, std::uint32_t end, const auto& keep) {
+    std::uint32_t n = 0;
+    for (std::uint32_t q = begin; q < end; ++q) n += keep(refs[q].segment) ? 1 : 0;
+    return n;
+  };
+  const auto flagged = [&](std::uint16_t flag) { return [&pool, flag](std::uint32_t s) { return (pool.flags[s] & flag) != 0; }; };
   parallel_for(clusters.size(), [&](std::size_t c) {
     const Cluster<T>& cl = clusters[c];
     // Camera technique samples: segments ending here that were continued; they could draw any
     // segment starting here (x' in the voxel). Density (N31) with the voxel kernel K_C.
-    std::uint32_t m = 0;
-    for (std::uint32_t q = cl.middle; q < cl.end; ++q) m += (pool.flags[refs[q].segment] & camera_technique) ? 1 : 0;
+    const std::uint32_t m = count(cl.middle, cl.end, flagged(camera_technique));
     camera_points[c] = m;
     if (ctx.techniques.bridges)
-      for (std::uint32_t q = cl.begin; q < cl.middle; ++q) bridge_targets[c] += is_bridge_target(pool, refs[q].segment) ? 1 : 0;
+      bridge_targets[c] = count(cl.begin, cl.middle, [&](std::uint32_t s) { return is_bridge_target(pool, s); });
     if (m > 0) {
       const auto y_of = [&](std::uint32_t s) -> const SurfacePoint<T>& { return pool.segments[s].y; };
       std::optional<Vec3<T>> common;
@@ -85,13 +91,9 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
       camera_fact[c] = common ? 1 : 0;
       // The technique samples whose incoming direction the (one-sided) BSDF accepts.
       const SurfacePoint<T>& any_y = pool.segments[refs[cl.middle].segment].y;
-      std::uint32_t valid_camera = 0;
-      if (common)
-        for (std::uint32_t q = cl.middle; q < cl.end; ++q) {
-          const std::uint32_t t = refs[q].segment;
-          if ((pool.flags[t] & camera_technique) && glm::dot(-pool.last_direction[t], any_y.normal) > one_sided_epsilon<T>)
-            ++valid_camera;
-        }
+      const std::uint32_t valid_camera = !common ? 0 : count(cl.middle, cl.end, [&](std::uint32_t t) {
+        return (pool.flags[t] & camera_technique) && glm::dot(-pool.last_direction[t], any_y.normal) > one_sided_epsilon<T>;
+      });
       for (std::uint32_t r = cl.begin; r < cl.middle; ++r) {
         const std::uint32_t sp = refs[r].segment;
         if (!camera_reachable(pool, sp)) continue;
@@ -119,21 +121,15 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
     }
     // Light technique samples: segments starting here that were continued backwards; they
     // could draw any plain segment ending here (y' in the voxel).
-    std::uint32_t n = 0;
-    for (std::uint32_t q = cl.begin; q < cl.middle; ++q) n += (pool.flags[refs[q].segment] & light_technique) ? 1 : 0;
-    if (n > 0) {
+    if (count(cl.begin, cl.middle, flagged(light_technique)) > 0) {
       const auto x_of = [&](std::uint32_t s) -> const SurfacePoint<T>& { return pool.segments[s].x; };
       std::optional<Vec3<T>> common;
       if (ctx.options.factorise) common = common_lambertian_normal(scene, x_of, refs, cl.begin, cl.middle);
       light_fact[c] = common ? 1 : 0;
       const SurfacePoint<T>& any_x = pool.segments[refs[cl.begin].segment].x;
-      std::uint32_t valid_light = 0;
-      if (common)
-        for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
-          const std::uint32_t t = refs[q].segment;
-          if ((pool.flags[t] & light_technique) && glm::dot(pool.first_direction[t], any_x.normal) > one_sided_epsilon<T>)
-            ++valid_light;
-        }
+      const std::uint32_t valid_light = !common ? 0 : count(cl.begin, cl.middle, [&](std::uint32_t t) {
+        return (pool.flags[t] & light_technique) && glm::dot(pool.first_direction[t], any_x.normal) > one_sided_epsilon<T>;
+      });
       for (std::uint32_t r = cl.middle; r < cl.end; ++r) {
         const std::uint32_t sp = refs[r].segment;
         if (!light_reachable(pool, sp)) continue;
