@@ -143,6 +143,45 @@ TEST_CASE("segment filtering: the image does not depend on the thread count", "[
   for (std::uint32_t p = 0; p < 64; ++p) CHECK(a[p] == b[p]);
 }
 
+// A fast statistical check of each method for the sanitizer build (which runs no [stat] test):
+// 12 iterations of 8 x 8 pixels in the slab furnace, every image mean within 5 standard errors of
+// the closed form (fixed seeds: the outcome is deterministic). It catches a weight off by a
+// constant factor (a density in the wrong measure, a missing technique), not small biases.
+TEST_CASE("MVF, PhF and BDPF: a fast furnace check for the sanitizer run", "[algorithms]") {
+  const PhotographedSlab<double> scene(furnace, 8);
+  const std::size_t max_length = 4;
+  double expected = 0;
+  for (unsigned k = 0; k < max_length; ++k) expected += scene.bounce_radiance(testing::SlabSide::a, k);
+  // Voxels (unjittered, 2 x 2 per period) tile the slab exactly; disks are biased O(r) where
+  // the technique points are sparse, which 8 x 8 pixels resolve (the sphere furnace's [stat]
+  // test checks that their bias shrinks with r).
+  for (const FilteringMode mode : {FilteringMode::mvf, FilteringMode::phf, FilteringMode::bdpf}) {
+    for (const FilteringSupport support : {FilteringSupport::voxel}) {
+      FilteringOptions<double> o;
+      o.mode = mode;
+      o.max_length = max_length;
+      o.support = support;
+      o.jitter = false;
+      o.seed = 21;
+      const SegmentFiltering<PhotographedSlab<double>> method(o);
+      testing::RunningStats stats;
+      DropCounters drops;
+      for (std::uint64_t it = 0; it < 12; ++it) {
+        Framebuffer<double> image(8, 8);
+        method.render_iteration_at_cell(scene, it, 0.5, image, drops);
+        double mean = 0;
+        for (auto v : image.pixels()) mean += v;
+        stats.add(mean / 64.0);
+      }
+      INFO(to_string(mode) << ", " << to_string(support) << ": " << stats.mean() << " +- " << stats.standard_error() << " vs "
+                           << expected);
+      CHECK(drops.total() == 0);
+      CHECK(std::abs(stats.mean() - expected) <= 5 * stats.standard_error() + 1e-9 * expected);
+      CHECK(stats.standard_error() < 0.03 * expected);  // a factor-2 error is > 30 standard errors off
+    }
+  }
+}
+
 TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorithms][stat]") {
   // The slab is a flat torus: clustering keys its points by their canonical image, and an
   // unjittered grid of voxels dividing the period tiles the fundamental cell exactly. MVF
