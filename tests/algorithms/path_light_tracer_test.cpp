@@ -163,6 +163,34 @@ TEMPLATE_TEST_CASE("path tracing and light tracing agree with the lit planes pix
   check_scene(disk_lit, "disk-lit plane");
 }
 
+// A fast check for the sanitizer build (which runs no [stat] test): path tracing with NEE inside
+// the sphere, 1500 samples per probe, within 5 standard errors (fixed seeds: deterministic). It
+// catches an NEE weight in the wrong measure, not small biases.
+TEST_CASE("path tracing with NEE: a fast sphere check for the sanitizer run", "[algorithms]") {
+  using T = double;
+  testing::SphereInteriorParameters<T> p;
+  p.radius = T(1.3);
+  p.emission_gradient = {T(0.4), 0, T(-0.5)};
+  p.albedo_mean = T(0.5);
+  const testing::SphereInterior<T> scene(p, {{0, 0, 1}, {1, -1, 0}});
+  const std::size_t max_length = 4;
+  const PathTracer<testing::SphereInterior<T>> pt({max_length, MisHeuristic::power, 0});
+  for (std::uint32_t pixel = 0; pixel < 2; ++pixel) {
+    double expected = 0;
+    for (unsigned k = 0; k < max_length; ++k) expected += scene.bounce_radiance_at(scene.probe_target(pixel), k);
+    testing::RunningStats stats;
+    for (std::uint64_t i = 0; i < 1500; ++i) {
+      Pcg32 rng = Pcg32::for_sample(23, pixel, i);
+      RecordingSink<T> sink;
+      pt.estimate(scene, {pixel, i}, rng, sink);
+      stats.add(double(sink.value));
+    }
+    INFO("probe " << pixel << ": " << stats.mean() << " +- " << stats.standard_error() << " vs " << expected);
+    CHECK(std::abs(stats.mean() - expected) <= 5 * stats.standard_error());
+    CHECK(stats.standard_error() < 0.03 * expected);
+  }
+}
+
 TEST_CASE("path and light tracers reject bad options", "[algorithms]") {
   using Scn = testing::SphereInterior<double>;
   CHECK_THROWS_AS(PathTracer<Scn>({0, MisHeuristic::power, 0}), std::invalid_argument);

@@ -346,3 +346,30 @@ TEMPLATE_TEST_CASE("every mode gives the same image for a seed serially and on t
     CHECK(std::memcmp(serial.pixels().data(), image.pixels().data(), sizeof(T) * serial.pixel_count()) != 0);
   }
 }
+
+// A fast check of every mode for the sanitizer build (which runs no [stat] test): the sphere
+// furnace at 300 iterations of 3 x 3 pixels, each estimate within 5 standard errors (fixed seeds,
+// so deterministic). It catches a weight off by a constant factor, not small biases.
+TEST_CASE("BDPT, PPM, BPM and VCM: a fast sphere-furnace check for the sanitizer run", "[algorithms][vcm]") {
+  using T = double;
+  testing::SphereInteriorParameters<T> sp;
+  sp.radius = 1;
+  sp.emission_mean = 1;
+  sp.albedo_mean = T(0.6);
+  const auto inside = camera<T>({T(0.2), T(-0.1), 0}, {0, 0, 1}, {1, 0, 0}, {0, 1, 0}, 3, 3, T(80));
+  using Scn = Pinhole<testing::SphereInterior<T>>;
+  const Scn scene(inside, sp, std::vector<Vec3<T>>{{0, 0, 1}});
+  const std::size_t max_length = 4;
+  double expected = 0;
+  for (unsigned b = 0; b < max_length; ++b) expected += scene.bounce_radiance_at(Vec3<T>(0, 0, 1), b);
+  for (const VcmMode mode : {VcmMode::bdpt, VcmMode::ppm, VcmMode::bpm, VcmMode::vcm}) {
+    const VertexConnectionMerging<Scn> method(options(mode, max_length, 0.1, 10, 8));
+    DropCounters drops;
+    const auto stats = run<Scn, T>(method, scene, 300, drops, 0.1);
+    const auto& mean = stats.back();
+    INFO(to_string(mode) << ": " << mean.mean() << " +- " << mean.standard_error() << " vs " << expected);
+    CHECK(drops.total() == 0);
+    CHECK(std::abs(mean.mean() - expected) <= 5 * mean.standard_error());
+    CHECK(mean.standard_error() < 0.03 * expected);
+  }
+}
