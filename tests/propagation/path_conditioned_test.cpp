@@ -117,22 +117,26 @@ double chain_weight(const RandomSides& p, const std::vector<std::uint32_t>& chai
 
 /// Sum over every chain of at most depth + 1 segments starting with s of
 /// prod (K f_r G) L_e(last) x chain_weight.
+/// With `pieces`, a segment s' stands for pieces[s'] segments and chains are limited to depth
+/// + 1 of those (propagation/segment_budget.hpp).
 template <class Near, class Kernel>
-double naive(const RandomSides& p, std::uint32_t s, int depth, const Near& near, const Kernel& kernel) {
+double naive(const RandomSides& p, std::uint32_t s, int depth, const Near& near, const Kernel& kernel,
+             const std::vector<std::uint16_t>& pieces = {}) {
+  const auto pieces_of = [&](std::uint32_t sp) { return pieces.empty() ? 1 : int(pieces[sp]); };
   std::vector<std::uint32_t> chain{s};
   std::function<double(double, int)> walk = [&](double throughput, int left) -> double {
     double sum = throughput * p.emitted[chain.back()] * chain_weight(p, chain);
-    if (left == 0) return sum;
     const std::uint32_t last = chain.back();
     for (const std::uint32_t sp : near(last)) {
-      if (!(p.geometry[sp] > 0)) continue;
+      if (!(p.geometry[sp] > 0) || left - pieces_of(sp) < 0) continue;
       chain.push_back(sp);
-      sum += walk(throughput * p.link(last, sp) * kernel(last) * p.geometry[sp], left - 1);
+      sum += walk(throughput * p.link(last, sp) * kernel(last) * p.geometry[sp], left - pieces_of(sp));
       chain.pop_back();
     }
     return sum;
   };
-  return walk(1.0, depth);
+  const int left = depth + 1 - pieces_of(s);
+  return left < 0 ? 0.0 : walk(1.0, left);
 }
 
 }  // namespace
@@ -325,4 +329,56 @@ TEST_CASE("path-conditioned propagation: factorised clusters give the general su
   }
   CHECK(factorised_clusters > 300);
   CHECK(self_joined > 100);  // the sums without a segment's own start are exercised
+}
+
+TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[propagation]") {
+  Pcg32 rng(2026, 12);
+  int compared = 0, cut = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    RandomSides p = make_sides(rng);
+    const bool disk = trial % 2 == 1;
+    Clustering<double> clustering;
+    DiskJunctions<double> junctions;
+    std::vector<std::vector<std::uint32_t>> near(p.n);
+    std::vector<double> kernel(p.n, 0);
+    if (disk) {
+      junctions.build(0.6, p.segments);
+      for (std::uint32_t s = 0; s < p.n; ++s) {
+        const auto span = junctions.starting_near(s);
+        near[s].assign(span.begin(), span.end());
+        kernel[s] = junctions.kernel();
+      }
+    } else {
+      clustering.build(VoxelGrid<double>(0.8, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)), p.segments);
+      for (std::uint32_t s = 0; s < p.n; ++s) {
+        const std::uint32_t c = clustering.cluster_of_y(s);
+        if (c == no_cluster) continue;
+        const Cluster<double>& cl = clustering.clusters()[c];
+        for (std::uint32_t r = cl.begin; r < cl.middle; ++r)
+          if (clustering.refs()[r].segment != s) near[s].push_back(clustering.refs()[r].segment);
+        kernel[s] = cl.kernel;
+      }
+    }
+    auto near_of = [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; };
+    finish_densities(p, rng, near_of);
+    std::vector<std::uint16_t> pieces(p.n);
+    for (auto& q : pieces) q = std::uint16_t(rng.uniform<double>() < 0.6 ? 1 : 2 + rng.next_u32() % 3);
+    auto inputs = p.inputs();
+    inputs.pieces = pieces;
+    const int depth = 1 + int(rng.next_u32() % 4);
+    std::vector<double> result;
+    if (disk) {
+      propagate_conditioned(junctions, inputs, depth, result);
+    } else {
+      propagate_conditioned(clustering, inputs, depth, result);
+    }
+    for (std::uint32_t s = 0; s < p.n; ++s) {
+      const double reference = naive(p, s, depth, near_of, [&](std::uint32_t q) { return kernel[q]; }, pieces);
+      CHECK(result[s] == Approx(reference).epsilon(1e-10).margin(1e-12));
+      ++compared;
+      cut += reference != naive(p, s, depth, near_of, [&](std::uint32_t q) { return kernel[q]; });
+    }
+  }
+  CHECK(compared > 1500);
+  CHECK(cut > 300);
 }

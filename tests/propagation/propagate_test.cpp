@@ -196,3 +196,63 @@ TEST_CASE("propagation rejects bad input", "[propagation]") {
   CHECK_THROWS_AS(propagate_prepared(plain, 1, r, workspace), std::invalid_argument);
   CHECK_NOTHROW(propagate_prepared(fast, 1, r, workspace));
 }
+
+namespace {
+
+/// The recursion of recursive_mmis_radiance with a budget of segments left after s: a start
+/// s' of p(s') pieces joins only if they fit (propagation/segment_budget.hpp).
+double budgeted_radiance(const Clustering<double>& clustering, const RandomPool& pool, const std::vector<std::uint16_t>& pieces,
+                         std::uint32_t s, int budget) {
+  double value = pool.emitted[s];
+  const std::uint32_t c = clustering.cluster_of_y(s);
+  if (c == no_cluster) return value;
+  const Cluster<double>& cluster = clustering.clusters()[c];
+  double sum = 0;
+  for (std::uint32_t q = cluster.begin; q < cluster.middle; ++q) {
+    const std::uint32_t sp = clustering.refs()[q].segment;
+    if (sp == s || budget - int(pieces[sp]) < 0) continue;
+    sum += pool.link_table[s * pool.n + sp] * pool.weighted_geometry[sp] * budgeted_radiance(clustering, pool, pieces, sp, budget - pieces[sp]);
+  }
+  return value + sum * cluster.kernel;
+}
+
+}  // namespace
+
+TEST_CASE("chains of several pieces count as that many segments, general or factorised", "[propagation]") {
+  Pcg32 rng(77, 2);
+  int compared = 0, cut = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const RandomPool pool = make_pool(rng);
+    std::vector<std::uint16_t> pieces(pool.n);
+    for (auto& p : pieces) p = std::uint16_t(rng.uniform<double>() < 0.6 ? 1 : 2 + rng.next_u32() % 3);
+    Clustering<double> clustering;
+    clustering.build(VoxelGrid<double>(1.0, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)), pool.segments);
+    auto link = [&](std::uint32_t s, std::uint32_t sp) { return pool.link_table[s * pool.n + sp]; };
+    auto diffuse_link = [&](std::uint32_t s, std::uint32_t) { return pool.diffuse[s]; };
+    const std::vector<std::uint8_t> all(clustering.group_count(), 1);
+    const int iterations = 1 + int(rng.next_u32() % 5);
+    std::vector<double> radiance, factorised, scratch;
+    propagate(PropagationInputs<double, decltype(link)>{clustering, pool.emitted, pool.weighted_geometry, link, {}, {}, pieces},
+              iterations, radiance, scratch);
+    propagate(PropagationInputs<double, decltype(diffuse_link)>{clustering, pool.emitted, pool.weighted_geometry, diffuse_link,
+                                                                pool.diffuse, all, pieces},
+              iterations, factorised, scratch);
+    RandomPool diffuse_pool = pool;
+    for (std::size_t s = 0; s < pool.n; ++s)
+      for (std::size_t sp = 0; sp < pool.n; ++sp) diffuse_pool.link_table[s * pool.n + sp] = pool.diffuse[s];
+    for (std::uint32_t s = 0; s < pool.n; ++s) {
+      // Paths of at most iterations + 1 segments, s's own pieces included.
+      const int budget = iterations + 1 - int(pieces[s]);
+      const double reference = budget < 0 ? 0.0 : budgeted_radiance(clustering, pool, pieces, s, budget);
+      const double reference_diffuse = budget < 0 ? 0.0 : budgeted_radiance(clustering, diffuse_pool, pieces, s, budget);
+      CHECK(radiance[s] == Approx(reference).epsilon(1e-12).margin(1e-300));
+      CHECK(factorised[s] == Approx(reference_diffuse).epsilon(1e-12).margin(1e-300));
+      ++compared;
+      if (budget >= 0 && reference != recursive_mmis_radiance<double>(clustering, pool.emitted, pool.weighted_geometry, link, s,
+                                                                       iterations))
+        ++cut;
+    }
+  }
+  CHECK(compared > 2000);
+  CHECK(cut > 300);  // the budget changes many values: chains are not counted as one segment
+}

@@ -75,6 +75,7 @@
 #include "segpath/propagation/disk_junctions.hpp"
 #include "segpath/propagation/junction_support.hpp"
 #include "segpath/propagation/pair_table.hpp"
+#include "segpath/propagation/segment_budget.hpp"
 #include "segpath/propagation/propagate.hpp"
 
 #include <algorithm>
@@ -118,6 +119,9 @@ struct ConditionedInputs {
   std::span<const std::uint8_t> flags;
   Link link;
   LightPair light_pair;
+  /// p(s): the segments s stands for (a chain through delta bounces); empty: all 1
+  /// (propagation/segment_budget.hpp).
+  std::span<const std::uint16_t> pieces = {};
 };
 
 /// The four suffix sums of a segment (see the header comment).
@@ -370,11 +374,24 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
       support, junction_cache_bytes, factorised,
       [&](std::size_t g, std::uint32_t i, std::uint32_t j) { return joins(i, j) ? junction(i, j, support.kernel(g)) : Junction{}; },
       parallel_for);
+  // Budgets (segment_budget.hpp): sweep k computes A^(k + 1); a start of p pieces reads
+  // A^(k + 1 - p), kept in `history` for the last `depth` budgets (all p = 1: it is current).
+  const int depth = detail::max_pieces(in.pieces, n);
+  std::vector<std::vector<ConditionedValues<S>>> history(depth > 1 ? std::size_t(depth) : 0);
   current = emission;
   for (int k = 0; k < iterations; ++k) {
     for_blocks(record.size(), parallel_for, [&](std::size_t r) {
       const std::uint32_t i = start[r].source;
-      starting_values[r] = i == no_cluster ? detail::conditioned_emission(in, record.segment(r)) : current[i];
+      const std::uint32_t sp = record.segment(r);
+      if (depth == 1) {
+        starting_values[r] = i == no_cluster ? detail::conditioned_emission(in, sp) : current[i];
+        return;
+      }
+      const int b = k + 1 - int(in.pieces[sp]);
+      starting_values[r] = b < 0                ? ConditionedValues<S>{}
+                           : i == no_cluster    ? detail::conditioned_emission(in, sp)
+                           : b == 0             ? emission[i]
+                                                : history[std::size_t(b % depth)][i];
     });
     detail::for_groups(support, parallel_for, [&](std::size_t g) {
       const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
@@ -423,14 +440,22 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
       }
     });
     std::swap(current, next);
+    if (depth > 1) history[std::size_t((k + 1) % depth)] = current;
   }
-  // Segments whose y end is in no group keep their emission.
+  // Segments whose y end is in no group keep their emission; each segment's value is over
+  // paths of at most iterations + 1 segments, A^(iterations + 1 - p(s)).
+  const auto budget_of = [&](std::size_t s) { return depth == 1 ? iterations : iterations + 1 - int(in.pieces[s]); };
   weighted.resize(n);
   for_blocks(n, parallel_for, [&](std::size_t s) {
     const ConditionedValues<S> v = detail::conditioned_emission(in, s);
-    weighted[s] = v.w[0] + v.w[1];
+    weighted[s] = budget_of(s) < 0 ? S(T(0)) : S(v.w[0] + v.w[1]);
   });
-  for_blocks(ending_slots, parallel_for, [&](std::size_t i) { weighted[ending_segment[i]] = current[i].w[0] + current[i].w[1]; });
+  for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
+    const int b = budget_of(ending_segment[i]);
+    if (b <= 0) return;  // its emission, or nothing
+    const ConditionedValues<S>& v = depth == 1 ? current[i] : history[std::size_t(b % depth)][i];
+    weighted[ending_segment[i]] = v.w[0] + v.w[1];
+  });
   return table.value_bytes();
 }
 

@@ -25,6 +25,7 @@
 #include "segpath/propagation/clustering.hpp"
 #include "segpath/propagation/disk_junctions.hpp"
 #include "segpath/propagation/junction_support.hpp"
+#include "segpath/propagation/segment_budget.hpp"
 
 #include <algorithm>
 #include <cstdint>
@@ -59,6 +60,9 @@ struct PropagationInputs {
   Link link;
   std::span<const S> diffuse = {};
   std::span<const std::uint8_t> factorised = {};
+  /// p(s): the segments s stands for, more than 1 for a chain through delta bounces; empty:
+  /// all 1. Paths are limited by their segments, not their pooled ones (segment_budget.hpp).
+  std::span<const std::uint16_t> pieces = {};
 };
 
 /// What propagate() keeps besides its result, reusable across calls: the inputs in slot order
@@ -166,14 +170,27 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
     throw std::invalid_argument("segpath::propagate_prepared: the workspace is not prepared for these inputs");
   constexpr bool by_slot = std::is_invocable_v<const Link&, Id, Id, Id, Id>;
   const bool has_factorisation = !in.factorised.empty();
+  // Budgets (segment_budget.hpp): sweep k computes A^(k + 1); a start s' of p pieces reads
+  // A^(k + 1 - p)(s'), kept in `history` for the last `depth` budgets. All p = 1: history is out.
+  const int depth = detail::max_pieces(in.pieces, in.emitted.size());
+  std::vector<std::vector<S>> history(depth > 1 ? std::size_t(depth) : 0);
   for (int k = 0; k < iterations; ++k) {
-    if (k > 0) {
+    if (depth > 1) {
+      const int budget = k + 1;
+      for_blocks(w.source.size(), parallel_for, [&](std::size_t r) {
+        const std::uint32_t i = w.source[r];
+        const int b = budget - int(in.pieces[record.segment(r)]);
+        w.starting_value[r] = b < 0 ? S(T(0))
+                              : (b == 0 || i == no_cluster) ? w.starting_emitted[r]
+                                                            : history[std::size_t(b % depth)][i] * w.starting_weight[r];
+      });
+    } else if (k > 0) {
       for_blocks(w.source.size(), parallel_for, [&](std::size_t r) {
         const std::uint32_t i = w.source[r];
         w.starting_value[r] = i == no_cluster ? w.starting_emitted[r] : w.out[i] * w.starting_weight[r];
       });
     }
-    const S* value = (k == 0 ? w.starting_emitted : w.starting_value).data();
+    const S* value = (k == 0 && depth == 1 ? w.starting_emitted : w.starting_value).data();
     detail::for_groups(support, parallel_for, [&](std::size_t g) {
       const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
       const T kernel = support.kernel(g);
@@ -211,10 +228,26 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
         w.out[i] = w.ending_emitted[i] + sum * kernel;
       }
     });
+    if (depth > 1) {
+      auto& kept = history[std::size_t((k + 1) % depth)];
+      kept.resize(w.out.size());
+      kept.swap(w.out);
+    }
   }
   // Segments whose y end is in no group (a light at infinity, a point light) keep L_e.
   radiance.assign(in.emitted.begin(), in.emitted.end());
-  for_blocks(w.out.size(), parallel_for, [&](std::size_t i) { radiance[ending_segment[i]] = w.out[i]; });
+  if (depth == 1) {
+    for_blocks(w.out.size(), parallel_for, [&](std::size_t i) { radiance[ending_segment[i]] = w.out[i]; });
+    return;
+  }
+  // Each segment's value over paths of at most iterations + 1 segments: A^(iterations + 1 - p(s)).
+  for_blocks(in.emitted.size(), parallel_for, [&](std::size_t s) {
+    if (iterations + 1 - int(in.pieces[s]) < 0) radiance[s] = S(T(0));
+  });
+  for_blocks(w.out.size(), parallel_for, [&](std::size_t i) {
+    const int b = iterations + 1 - int(in.pieces[ending_segment[i]]);
+    if (b > 0) radiance[ending_segment[i]] = history[std::size_t(b % depth)][i];
+  });
 }
 
 /// prepare_propagation() and propagate_prepared().

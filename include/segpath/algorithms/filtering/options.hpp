@@ -54,7 +54,9 @@ enum class FilteringWeighting : std::uint8_t {
 template <Real T>
 struct FilteringOptions {
   FilteringMode mode = FilteringMode::bdpf;
-  std::size_t max_length = 10;  ///< segments per path (>= 2): propagation runs max_length - 1 iterations
+  /// Segments per path (>= 2), a chain through delta bounces counting its pieces (as in VCM and
+  /// PT): propagation runs max_length - 1 iterations (propagation/segment_budget.hpp).
+  std::size_t max_length = 10;
   T light_path_ratio = T(1);  ///< beta: light paths per pixel per iteration (PhF, BDPF); 1: BDPF's best at equal time on box 1
   /// PhF, BDPF: the probability c that a light path draws a predecessor at a non-delta vertex
   /// (Russian roulette, the same at every depth). Light paths have no depth limit, so whether a

@@ -91,6 +91,7 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
         const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{y.position, next->direction}});
         direction = next->direction;
         ++pieces;
+        if (r.pieces < 0xffff) ++r.pieces;
         r.flags |= chain_segment;
         if (hit) {
           y = hit->point;
@@ -189,6 +190,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
       r.chain = r.chain * (prev->value * (std::abs(glm::dot(prev->direction, x.normal)) / prev->pdf));
       r.segment.x = hit->point;
       r.first_direction = -prev->direction;
+      if (r.pieces < 0xffff) ++r.pieces;
       r.flags |= chain_segment;
       if (!(r.flags & delta_light)) r.geometry = endpoint_cosine(r.segment.x, r.first_direction);
       continue;

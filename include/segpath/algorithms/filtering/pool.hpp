@@ -42,12 +42,15 @@ struct Pool {
   /// path; no_parent for the unconditional draws (sensor, light start, extra techniques) and bridges.
   std::vector<std::uint32_t> parent;
   std::vector<std::uint16_t> flags;
+  /// The segments each pooled one stands for: 1, or the pieces of a chain through delta
+  /// bounces. Paths are limited to max_length of these (propagation/segment_budget.hpp).
+  std::vector<std::uint16_t> pieces;
   std::uint64_t bridge_targets = 0;       ///< M: light-born segments with a surface x (bridges on)
   std::uint64_t next_event_segments = 0;  ///< camera-born segments drawn by light sampling
   [[nodiscard]] std::size_t size() const noexcept { return segments.size(); }
   [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
     return sizeof(Segment<T>) + 2 * sizeof(Vec3<T>) + 2 * sizeof(S) + 3 * sizeof(T) + 2 * sizeof(std::uint32_t) +
-           sizeof(std::uint16_t);
+           2 * sizeof(std::uint16_t);
   }
 };
 
@@ -64,6 +67,7 @@ struct Record {
   std::uint32_t pixel = 0;
   std::uint32_t parent = no_parent;  ///< index in the same generator's record list
   std::uint16_t flags = 0;
+  std::uint16_t pieces = 1;  ///< Pool::pieces
   bool next_event = false;
 };
 
@@ -77,7 +81,7 @@ void append(Pool<T, S>& pool, const std::vector<std::vector<Record<T, S>>>& chun
   pool.segments.resize(total), pool.first_direction.resize(total), pool.last_direction.resize(total);
   pool.chain.resize(total), pool.geometry.resize(total), pool.sensor_weight.resize(total), pool.pixel.resize(total);
   pool.density.resize(total);
-  pool.parent.resize(total), pool.flags.resize(total);
+  pool.parent.resize(total), pool.flags.resize(total), pool.pieces.resize(total);
   std::vector<std::uint64_t> next_event(chunks.size(), 0);
   parallel_for(chunks.size(), [&](std::size_t c) {
     std::size_t i = base[c];
@@ -92,6 +96,7 @@ void append(Pool<T, S>& pool, const std::vector<std::vector<Record<T, S>>>& chun
       pool.pixel[i] = r.pixel;
       pool.parent[i] = r.parent == no_parent ? no_parent : std::uint32_t(base[c] + r.parent);
       pool.flags[i] = r.flags;
+      pool.pieces[i] = r.pieces;
       next_event[c] += r.next_event ? 1 : 0;
       ++i;
     }

@@ -62,7 +62,8 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
                 [&](std::size_t, std::uint32_t i, std::uint32_t j) { return link(0, 0, i, j); }, parallel_for);
     ctx.stats.transfer_cache_bytes = table.value_bytes();
     const CachedTransferLink<Scn> cached{link, table};
-    propagate(PropagationInputs<S, CachedTransferLink<Scn>, J>{support, pool.emitted, weighted_geometry, cached, diffuse, factorised},
+    propagate(PropagationInputs<S, CachedTransferLink<Scn>, J>{support, pool.emitted, weighted_geometry, cached, diffuse, factorised,
+                                                               pool.pieces},
               iterations, radiance, workspace, parallel_for);
   } else {
     const auto& bsdf = scene.bsdf();
@@ -70,7 +71,8 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
       const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});
       return f * pool.chain[s];
     };
-    propagate(PropagationInputs<S, decltype(link), J>{support, pool.emitted, weighted_geometry, link}, iterations, radiance,
+    propagate(PropagationInputs<S, decltype(link), J>{support, pool.emitted, weighted_geometry, link, {}, {}, pool.pieces}, iterations,
+              radiance,
               workspace, parallel_for);
   }
 }
@@ -105,7 +107,8 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
              pool.chain[s];
     };
     const ConditionedInputs<S, decltype(link), decltype(light_pair)> inputs{
-        pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags, link, light_pair};
+        pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags, link, light_pair,
+        pool.pieces};
     propagate_conditioned(support, inputs, iterations, radiance, parallel_for);
       } else {
     std::vector<std::uint8_t> factorised;
@@ -150,7 +153,8 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     };
     const ConditionedInputs<S, TransferLink<Scn>, SlotLightPair> slot_inputs{
         pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags,
-        TransferLink<Scn>{scene.bsdf(), transfer}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale}};
+        TransferLink<Scn>{scene.bsdf(), transfer}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale},
+        pool.pieces};
     // The junctions of the pairs that fit the cache budget are built once per pool.
     stats.transfer_cache_bytes =
         propagate_conditioned(support, slot_inputs, iterations, radiance, parallel_for, std::span<const std::uint8_t>(factorised),
