@@ -375,23 +375,35 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
       [&](std::size_t g, std::uint32_t i, std::uint32_t j) { return joins(i, j) ? junction(i, j, support.kernel(g)) : Junction{}; },
       parallel_for);
   // Budgets (segment_budget.hpp): sweep k computes A^(k + 1); a start of p pieces reads
-  // A^(k + 1 - p), kept in `history` for the last `depth` budgets (all p = 1: it is current).
+  // A^(k + 1 - p), which `lagged` keeps for p > 1 (as for the results of chains).
   const int depth = detail::max_pieces(in.pieces, n);
-  std::vector<std::vector<ConditionedValues<S>>> history(depth > 1 ? std::size_t(depth) : 0);
+  detail::LaggedValues<ConditionedValues<S>> lagged;
+  std::vector<std::uint32_t> start_watch, end_watch;
+  if (depth > 1) {
+    start_watch.assign(record.size(), detail::no_watch);
+    end_watch.assign(ending_slots, detail::no_watch);
+    for (std::size_t r = 0; r < record.size(); ++r)
+      if (const std::uint16_t p = in.pieces[record.segment(r)]; p > 1 && start[r].source != no_cluster)
+        start_watch[r] = lagged.watch(start[r].source, p);
+    for (std::size_t i = 0; i < ending_slots; ++i)
+      if (const std::uint16_t p = in.pieces[ending_segment[i]]; p > 1) end_watch[i] = lagged.watch(std::uint32_t(i), p);
+    lagged.allocate();
+  }
   current = emission;
   for (int k = 0; k < iterations; ++k) {
     for_blocks(record.size(), parallel_for, [&](std::size_t r) {
       const std::uint32_t i = start[r].source;
       const std::uint32_t sp = record.segment(r);
-      if (depth == 1) {
-        starting_values[r] = i == no_cluster ? detail::conditioned_emission(in, sp) : current[i];
-        return;
+      const int b = depth == 1 ? k : k + 1 - int(in.pieces[sp]);
+      if (b < 0) {
+        starting_values[r] = ConditionedValues<S>{};
+      } else if (i == no_cluster) {
+        starting_values[r] = detail::conditioned_emission(in, sp);
+      } else if (depth == 1 || start_watch[r] == detail::no_watch) {
+        starting_values[r] = b == 0 ? emission[i] : current[i];
+      } else {
+        starting_values[r] = b == 0 ? emission[i] : lagged.at(start_watch[r], b);
       }
-      const int b = k + 1 - int(in.pieces[sp]);
-      starting_values[r] = b < 0                ? ConditionedValues<S>{}
-                           : i == no_cluster    ? detail::conditioned_emission(in, sp)
-                           : b == 0             ? emission[i]
-                                                : history[std::size_t(b % depth)][i];
     });
     detail::for_groups(support, parallel_for, [&](std::size_t g) {
       const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
@@ -440,7 +452,7 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
       }
     });
     std::swap(current, next);
-    if (depth > 1) history[std::size_t((k + 1) % depth)] = current;
+    if (depth > 1) lagged.keep(k + 1, std::span<const ConditionedValues<S>>(current), parallel_for);
   }
   // Segments whose y end is in no group keep their emission; each segment's value is over
   // paths of at most iterations + 1 segments, A^(iterations + 1 - p(s)).
@@ -453,7 +465,7 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     const int b = budget_of(ending_segment[i]);
     if (b <= 0) return;  // its emission, or nothing
-    const ConditionedValues<S>& v = depth == 1 ? current[i] : history[std::size_t(b % depth)][i];
+    const ConditionedValues<S>& v = depth == 1 || end_watch[i] == detail::no_watch ? current[i] : lagged.at(end_watch[i], b);
     weighted[ending_segment[i]] = v.w[0] + v.w[1];
   });
   return table.value_bytes();

@@ -170,19 +170,34 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
     throw std::invalid_argument("segpath::propagate_prepared: the workspace is not prepared for these inputs");
   constexpr bool by_slot = std::is_invocable_v<const Link&, Id, Id, Id, Id>;
   const bool has_factorisation = !in.factorised.empty();
-  // Budgets (segment_budget.hpp): sweep k computes A^(k + 1); a start s' of p pieces reads
-  // A^(k + 1 - p)(s'), kept in `history` for the last `depth` budgets. All p = 1: history is out.
+  // Budgets (segment_budget.hpp): sweep k computes A^(k + 1) into out; a start s' of p pieces
+  // reads A^(k + 1 - p)(s'), which `lagged` keeps for p > 1 (as for the results of chains).
   const int depth = detail::max_pieces(in.pieces, in.emitted.size());
-  std::vector<std::vector<S>> history(depth > 1 ? std::size_t(depth) : 0);
+  detail::LaggedValues<S> lagged;
+  std::vector<std::uint32_t> start_watch, end_watch;
+  if (depth > 1) {
+    start_watch.assign(record.size(), detail::no_watch);
+    end_watch.assign(w.out.size(), detail::no_watch);
+    for (std::size_t r = 0; r < record.size(); ++r)
+      if (const std::uint16_t p = in.pieces[record.segment(r)]; p > 1 && w.source[r] != no_cluster)
+        start_watch[r] = lagged.watch(w.source[r], p);
+    for (std::size_t i = 0; i < end_watch.size(); ++i)
+      if (const std::uint16_t p = in.pieces[ending_segment[i]]; p > 1) end_watch[i] = lagged.watch(std::uint32_t(i), p);
+    lagged.allocate();
+  }
   for (int k = 0; k < iterations; ++k) {
     if (depth > 1) {
       const int budget = k + 1;
       for_blocks(w.source.size(), parallel_for, [&](std::size_t r) {
         const std::uint32_t i = w.source[r];
         const int b = budget - int(in.pieces[record.segment(r)]);
-        w.starting_value[r] = b < 0 ? S(T(0))
-                              : (b == 0 || i == no_cluster) ? w.starting_emitted[r]
-                                                            : history[std::size_t(b % depth)][i] * w.starting_weight[r];
+        if (b < 0) {
+          w.starting_value[r] = S(T(0));
+        } else if (b == 0 || i == no_cluster) {
+          w.starting_value[r] = w.starting_emitted[r];
+        } else {
+          w.starting_value[r] = (start_watch[r] == detail::no_watch ? w.out[i] : lagged.at(start_watch[r], b)) * w.starting_weight[r];
+        }
       });
     } else if (k > 0) {
       for_blocks(w.source.size(), parallel_for, [&](std::size_t r) {
@@ -228,11 +243,7 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
         w.out[i] = w.ending_emitted[i] + sum * kernel;
       }
     });
-    if (depth > 1) {
-      auto& kept = history[std::size_t((k + 1) % depth)];
-      kept.resize(w.out.size());
-      kept.swap(w.out);
-    }
+    if (depth > 1) lagged.keep(k + 1, std::span<const S>(w.out), parallel_for);
   }
   // Segments whose y end is in no group (a light at infinity, a point light) keep L_e.
   radiance.assign(in.emitted.begin(), in.emitted.end());
@@ -246,7 +257,7 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
   });
   for_blocks(w.out.size(), parallel_for, [&](std::size_t i) {
     const int b = iterations + 1 - int(in.pieces[ending_segment[i]]);
-    if (b > 0) radiance[ending_segment[i]] = history[std::size_t(b % depth)][i];
+    if (b > 0) radiance[ending_segment[i]] = end_watch[i] == detail::no_watch ? w.out[i] : lagged.at(end_watch[i], b);
   });
 }
 
