@@ -414,8 +414,7 @@ class FilteringMethod {
 /// The light-transport family a filtering method cannot sample in `scene`, if any (a one-line
 /// warning for the user, instead of a silently dark image): MVF's camera paths never end on a
 /// Dirac light (point light, sun) and its next-event segments do not pass mirrors or glass, so
-/// the Dirac light's caustics are missing; PhF's sky paths end at the first mirror or glass
-/// surface (a sky chain needs both sides' densities), so the sky's caustics are missing.
+/// the Dirac light's caustics are missing. (PhF's sky paths chain through mirrors and glass.)
 inline std::optional<std::string> unsampled_family(std::string_view method, const RenderScene& scene) {
   bool delta_material = false;
   for (std::uint32_t id = 0; id < scene.bsdf().size(); ++id) {
@@ -426,13 +425,9 @@ inline std::optional<std::string> unsampled_family(std::string_view method, cons
   const auto& light = scene.emitter().get();
   const bool dirac = std::holds_alternative<segpath::PointLight<Color>>(light) ||
                      std::holds_alternative<segpath::DirectionalLight<Color>>(light);
-  const bool sky = std::holds_alternative<segpath::BackgroundLight<Color>>(light);
   if (method == "mvf" && dirac)
     return std::string("mvf cannot sample light from a point light or the sun through mirrors or glass (those caustics "
                        "render dark); bdpf or phf sample it");
-  if (method == "phf" && sky)
-    return std::string("phf cannot sample sky light through mirrors or glass (those caustics render dark); bdpf or mvf "
-                       "sample it");
   return std::nullopt;
 }
 

@@ -164,13 +164,16 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   // light, so every predecessor chains, and so does the light start from an area light. From a
   // Dirac light (point, sun) the chain has no local density (a curved mirror's Jacobian enters)
   // but only the light start draws it: a dirac_chain keeps the first segment's G and N_L p
-  // (pool.hpp). A sky's chain would need both sides' densities and its disk point: it ends the
-  // path (camera chains to the sky carry it). Through delta
+  // (pool.hpp). A sky's chain is drawn by camera successors too (a diffuse point's chain through
+  // glass to the sky), whose density would need the chain's disk point: where camera successors
+  // draw (MVF, BDPF) it ends the light path and camera chains carry it; where they do not (PhF)
+  // only the light start draws it, and it is kept like a Dirac chain. Through delta
   // transmissions too: where the chain's two ends lie in one medium (both outside a glass
   // object), its importance throughput is its radiance throughput (the (eta_i / eta_t)^2 of
   // each refraction cancel in and out) and the etendue's n^2 cancels; docs/filtering.md.
-  bool chains = first->delta || r.segment.y.kind == PointKind::surface;
-  if (first->delta) r.density = T(ctx.light_paths()) * first->pdf;  // used if it becomes a chain
+  const bool sky_chain = !first->delta && r.segment.y.kind == PointKind::direction && !ctx.techniques.camera_successors;
+  bool chains = first->delta || sky_chain || r.segment.y.kind == PointKind::surface;
+  if (first->delta || sky_chain) r.density = T(ctx.light_paths()) * first->pdf;  // used if it becomes a chain
   // No depth limit (Russian roulette with c at every non-delta vertex, TechniqueSet::
   // light_continuation): a depth limit would make a light-born segment's ability to draw a
   // predecessor depend on its depth, which the path-conditioned weighting cannot see (it deduces
@@ -191,7 +194,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
       r.segment.x = hit->point;
       r.first_direction = -prev->direction;
       if (r.pieces < 0xffff) ++r.pieces;
-      r.flags |= chain_segment;
+      r.flags |= chain_segment | (sky_chain ? delta_light : 0);  // a kept chain (dirac_chain) keeps its first G
       if (!(r.flags & delta_light)) r.geometry = endpoint_cosine(r.segment.x, r.first_direction);
       continue;
     }

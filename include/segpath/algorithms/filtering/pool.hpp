@@ -21,7 +21,7 @@ enum PoolFlag : std::uint16_t {
   camera_technique = 8,     ///< a camera successor draw was attempted from it
   light_technique = 16,     ///< a light predecessor draw was attempted from it
   light_start = 32,         ///< drawn by the light-start sampler
-  delta_light = 64,         ///< its light end is a Dirac (point light, sun)
+  delta_light = 64,         ///< its light end is a Dirac (point light, sun), or it is PhF's sky chain: only the light start draws it
   bridge_segment = 128,     ///< drawn by the bridge technique
   transmission_chain = 256, ///< a chain through a delta transmission
   extra_technique = 512,    ///< drawn by a technique of the user's list (FilteringTechnique)
@@ -129,7 +129,8 @@ template <class Pl>
 /// A light start from a Dirac light (point light, sun) continued through delta bounces: no other
 /// technique draws such a chain (a camera chain cannot end on a Dirac), so its balance weight is
 /// 1 and its denominator, N_L times its first segment's density, is kept from the draw (its G is
-/// the first segment's: G w is the photon's 1 / (N_L p_position p_direction)).
+/// the first segment's: G w is the photon's 1 / (N_L p_position p_direction)). So is a sky's
+/// chain where no camera successor draws (PhF).
 template <class Pl>
 [[nodiscard]] bool dirac_chain(const Pl& pool, std::size_t s) noexcept {
   return (pool.flags[s] & (chain_segment | delta_light)) == (chain_segment | delta_light);
