@@ -139,6 +139,40 @@ double naive(const RandomSides& p, std::uint32_t s, int depth, const Near& near,
   return left < 0 ? 0.0 : walk(1.0, left);
 }
 
+/// The supports of a random pool and, per segment s, the starts it joins (never itself) and
+/// its kernel: disks of radius 0.6, or voxels of 0.8 on a randomly shifted grid.
+struct Neighbourhoods {
+  Clustering<double> clustering;
+  DiskJunctions<double> junctions;
+  std::vector<std::vector<std::uint32_t>> near;
+  std::vector<double> kernel;
+  int self_joined = 0;  ///< segments whose two ends share a cluster
+};
+
+Neighbourhoods neighbourhoods(const RandomSides& p, bool disk, Pcg32& rng) {
+  Neighbourhoods h{{}, {}, std::vector<std::vector<std::uint32_t>>(p.n), std::vector<double>(p.n, 0), 0};
+  if (disk) {
+    h.junctions.build(0.6, p.segments);
+    for (std::uint32_t s = 0; s < p.n; ++s) {
+      const auto span = h.junctions.starting_near(s);
+      h.near[s].assign(span.begin(), span.end());
+      h.kernel[s] = h.junctions.kernel();
+    }
+    return h;
+  }
+  h.clustering.build(VoxelGrid<double>(0.8, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)), p.segments);
+  for (std::uint32_t s = 0; s < p.n; ++s) {
+    const std::uint32_t c = h.clustering.cluster_of_y(s);
+    if (c == no_cluster) continue;
+    const Cluster<double>& cl = h.clustering.clusters()[c];
+    for (std::uint32_t r = cl.begin; r < cl.middle; ++r)
+      if (h.clustering.refs()[r].segment != s) h.near[s].push_back(h.clustering.refs()[r].segment);  // never itself
+    h.self_joined += h.clustering.cluster_of_x(s) == c;
+    h.kernel[s] = cl.kernel;
+  }
+  return h;
+}
+
 }  // namespace
 
 TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 400 random pools", "[propagation]") {
@@ -147,29 +181,12 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
   for (int trial = 0; trial < 400; ++trial) {
     RandomSides p = make_sides(rng);
     const bool disk = trial % 2 == 1;
-    Clustering<double> clustering;
-    DiskJunctions<double> junctions;
-    std::vector<std::vector<std::uint32_t>> near(p.n);
-    std::vector<double> kernel(p.n, 0);
-    if (disk) {
-      junctions.build(0.6, p.segments);
-      for (std::uint32_t s = 0; s < p.n; ++s) {
-        const auto span = junctions.starting_near(s);
-        near[s].assign(span.begin(), span.end());
-        kernel[s] = junctions.kernel();
-      }
-    } else {
-      clustering.build(VoxelGrid<double>(0.8, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)), p.segments);
-      for (std::uint32_t s = 0; s < p.n; ++s) {
-        const std::uint32_t c = clustering.cluster_of_y(s);
-        if (c == no_cluster) continue;
-        const Cluster<double>& cl = clustering.clusters()[c];
-        for (std::uint32_t r = cl.begin; r < cl.middle; ++r)
-          if (clustering.refs()[r].segment != s) near[s].push_back(clustering.refs()[r].segment);  // never itself
-        self_joined += clustering.cluster_of_x(s) == c;
-        kernel[s] = cl.kernel;
-      }
-    }
+    Neighbourhoods hood = neighbourhoods(p, disk, rng);
+    const Clustering<double>& clustering = hood.clustering;
+    const DiskJunctions<double>& junctions = hood.junctions;
+    const auto& near = hood.near;
+    const auto& kernel = hood.kernel;
+    self_joined += hood.self_joined;
     auto near_of = [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; };
     finish_densities(p, rng, near_of);
     const auto inputs = p.inputs();
@@ -337,28 +354,9 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
   for (int trial = 0; trial < 300; ++trial) {
     RandomSides p = make_sides(rng);
     const bool disk = trial % 2 == 1;
-    Clustering<double> clustering;
-    DiskJunctions<double> junctions;
-    std::vector<std::vector<std::uint32_t>> near(p.n);
-    std::vector<double> kernel(p.n, 0);
-    if (disk) {
-      junctions.build(0.6, p.segments);
-      for (std::uint32_t s = 0; s < p.n; ++s) {
-        const auto span = junctions.starting_near(s);
-        near[s].assign(span.begin(), span.end());
-        kernel[s] = junctions.kernel();
-      }
-    } else {
-      clustering.build(VoxelGrid<double>(0.8, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)), p.segments);
-      for (std::uint32_t s = 0; s < p.n; ++s) {
-        const std::uint32_t c = clustering.cluster_of_y(s);
-        if (c == no_cluster) continue;
-        const Cluster<double>& cl = clustering.clusters()[c];
-        for (std::uint32_t r = cl.begin; r < cl.middle; ++r)
-          if (clustering.refs()[r].segment != s) near[s].push_back(clustering.refs()[r].segment);
-        kernel[s] = cl.kernel;
-      }
-    }
+    const Neighbourhoods hood = neighbourhoods(p, disk, rng);
+    const auto& near = hood.near;
+    const auto& kernel = hood.kernel;
     auto near_of = [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; };
     finish_densities(p, rng, near_of);
     std::vector<std::uint16_t> pieces(p.n);
@@ -368,9 +366,9 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
     const int depth = 1 + int(rng.next_u32() % 4);
     std::vector<double> result;
     if (disk) {
-      propagate_conditioned(junctions, inputs, depth, result);
+      propagate_conditioned(hood.junctions, inputs, depth, result);
     } else {
-      propagate_conditioned(clustering, inputs, depth, result);
+      propagate_conditioned(hood.clustering, inputs, depth, result);
     }
     for (std::uint32_t s = 0; s < p.n; ++s) {
       const double reference = naive(p, s, depth, near_of, [&](std::uint32_t q) { return kernel[q]; }, pieces);

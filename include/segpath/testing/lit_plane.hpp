@@ -78,6 +78,59 @@ template <Real T, class Inside>
   return inside(x.x, x.y);
 }
 
+/// The square and a second horizontal surface at z = level (a disk light, a dielectric
+/// interface): `on_level(x, y)` says whether (x, y, level) lies on it, `level_point(x, y)` makes
+/// that point. The nearest of the two crossed at t in (0, t_max).
+template <Real T, class OnLevel, class LevelPoint>
+[[nodiscard]] std::optional<Hit<T>> intersect_square_and_level(const LitSquare<T>& square, const IntersectQuery<T>& q, T level,
+                                                               const OnLevel& on_level, const LevelPoint& level_point) noexcept {
+  std::optional<Hit<T>> hit = square.intersect(q.ray, q.t_max);
+  const T t_max = hit ? hit->distance : q.t_max;
+  if (q.ray.direction.z != T(0)) {
+    const T t = (level - q.ray.origin.z) / q.ray.direction.z;
+    if (t > T(0) && t < t_max) {
+      const Vec3<T> x = q.ray.at(t);
+      if (on_level(x.x, x.y)) hit = Hit<T>{level_point(x.x, x.y), t};
+    }
+  }
+  return hit;
+}
+
+/// Visibility where an end is a `direction`: the ray towards it escapes (`intersect` finds
+/// nothing); two directions never see each other. nullopt where neither end is one.
+template <Real T, class Intersect>
+[[nodiscard]] std::optional<bool> visible_towards_direction(const VisibilityQuery<T>& q, const Intersect& intersect) noexcept {
+  const bool from_dir = q.from.kind == PointKind::direction;
+  const bool to_dir = q.to.kind == PointKind::direction;
+  if (from_dir && to_dir) return false;
+  if (!from_dir && !to_dir) return std::nullopt;
+  const SurfacePoint<T>& o = from_dir ? q.to : q.from;
+  const SurfacePoint<T>& d = from_dir ? q.from : q.to;
+  return !intersect(IntersectQuery<T>{Ray<T>{o.position, glm::normalize(d.position)}});
+}
+
+/// Visibility among the square and the level surface (two ends on one surface's plane are
+/// blocked); a `direction` end is visible when the ray towards it escapes (`intersect`).
+template <Real T, class OnLevel, class Intersect>
+[[nodiscard]] bool visible_square_and_level(const LitSquare<T>& square, const VisibilityQuery<T>& q, T level,
+                                            const OnLevel& on_level, const Intersect& intersect) noexcept {
+  if (const auto towards = visible_towards_direction(q, intersect)) return *towards;
+  const Vec3<T>& a = q.from.position;
+  const Vec3<T>& b = q.to.position;
+  return !crosses_plane(a, b, T(0), [&square](T x, T y) { return square.contains(x, y); }) && !crosses_plane(a, b, level, on_level);
+}
+
+/// u.x picks the square (with its share of `total_area`) or the level surface, whose point
+/// `level_sample(u')` draws uniformly; density 1 / total_area.
+template <Real T, class LevelSample>
+[[nodiscard]] AreaSample<T> sample_square_or_level(const LitSquare<T>& square, const Vec2<T>& u, T total_area,
+                                                   const LevelSample& level_sample) noexcept {
+  const T square_share = square.area() / total_area;
+  if (u.x < square_share) return AreaSample<T>{square.sample(Vec2<T>(std::min(u.x / square_share, T(1)), u.y)), T(1) / total_area};
+  const T ux = std::clamp((u.x - square_share) / (T(1) - square_share), T(0), T(1));
+  return AreaSample<T>{level_sample(Vec2<T>(ux, u.y)), T(1) / total_area};
+}
+
 inline void require_lit_plane(bool ok, const char* who, const std::string& what) {
   if (!ok) throw std::invalid_argument(std::string("segpath::testing::") + who + ": " + what);
 }
@@ -163,14 +216,8 @@ class PointLitPlane {
   /// Blocked only by the square (two ends on the square's plane are blocked); a `direction`
   /// end is visible when the ray towards it misses the square.
   [[nodiscard]] bool visible(const VisibilityQuery<T>& q) const noexcept {
-    const bool from_dir = q.from.kind == PointKind::direction;
-    const bool to_dir = q.to.kind == PointKind::direction;
-    if (from_dir && to_dir) return false;
-    if (from_dir || to_dir) {
-      const SurfacePoint<T>& o = from_dir ? q.to : q.from;
-      const SurfacePoint<T>& d = from_dir ? q.from : q.to;
-      return !intersect(IntersectQuery<T>{Ray<T>{o.position, glm::normalize(d.position)}});
-    }
+    if (const auto towards = detail::visible_towards_direction(q, [this](const IntersectQuery<T>& r) { return intersect(r); }))
+      return *towards;
     return !detail::crosses_plane(q.from.position, q.to.position, T(0),
                                   [this](T x, T y) { return square_.contains(x, y); });
   }
@@ -264,45 +311,20 @@ class DiskLitPlane {
   /// a uniform point of it.
   [[nodiscard]] std::optional<AreaSample<T>> sample_area(
       const AreaSampleQuery<T>& q) const noexcept {
-    const T square_share = square_.area() / area();
-    if (q.u.x < square_share) {
-      const T ux = std::min(q.u.x / square_share, T(1));
-      return AreaSample<T>{square_.sample(Vec2<T>(ux, q.u.y)), T(1) / area()};
-    }
-    const T ux = std::clamp((q.u.x - square_share) / (T(1) - square_share), T(0), T(1));
-    return AreaSample<T>{disk_sample(Vec2<T>(ux, q.u.y)), T(1) / area()};
+    return detail::sample_square_or_level(square_, q.u, area(), [this](const Vec2<T>& u) { return disk_sample(u); });
   }
 
   /// The nearest of the square (normal +z) and the disk (normal -z) crossed at t in (0, t_max).
   [[nodiscard]] std::optional<Hit<T>> intersect(const IntersectQuery<T>& q) const noexcept {
-    std::optional<Hit<T>> hit = square_.intersect(q.ray, q.t_max);
-    const T t_max = hit ? hit->distance : q.t_max;
-    if (q.ray.direction.z != T(0)) {
-      const T t = (p_.height - q.ray.origin.z) / q.ray.direction.z;
-      if (t > T(0) && t < t_max) {
-        const Vec3<T> x = q.ray.at(t);
-        if (in_disk(x.x, x.y)) hit = Hit<T>{disk_point(x.x, x.y), t};
-      }
-    }
-    return hit;
+    return detail::intersect_square_and_level(
+        square_, q, p_.height, [this](T x, T y) { return in_disk(x, y); }, [this](T x, T y) { return disk_point(x, y); });
   }
 
   /// Blocked by the square or the disk (two ends on the same surface's plane are blocked); a
   /// `direction` end is visible when the ray towards it escapes.
   [[nodiscard]] bool visible(const VisibilityQuery<T>& q) const noexcept {
-    const bool from_dir = q.from.kind == PointKind::direction;
-    const bool to_dir = q.to.kind == PointKind::direction;
-    if (from_dir && to_dir) return false;
-    if (from_dir || to_dir) {
-      const SurfacePoint<T>& o = from_dir ? q.to : q.from;
-      const SurfacePoint<T>& d = from_dir ? q.from : q.to;
-      return !intersect(IntersectQuery<T>{Ray<T>{o.position, glm::normalize(d.position)}});
-    }
-    const Vec3<T>& a = q.from.position;
-    const Vec3<T>& b = q.to.position;
-    return !detail::crosses_plane(a, b, T(0), [this](T x, T y) {
-      return square_.contains(x, y);
-    }) && !detail::crosses_plane(a, b, p_.height, [this](T x, T y) { return in_disk(x, y); });
+    return detail::visible_square_and_level(
+        square_, q, p_.height, [this](T x, T y) { return in_disk(x, y); }, [this](const IntersectQuery<T>& r) { return intersect(r); });
   }
 
   // ---- radiometry --------------------------------------------------------------------

@@ -156,45 +156,25 @@ class PointLitSubmergedPlane {
   /// Picks the square or the interface with probability proportional to its area (by u.x),
   /// then a uniform point of it.
   [[nodiscard]] std::optional<AreaSample<T>> sample_area(const AreaSampleQuery<T>& q) const noexcept {
-    const T square_share = square_.area() / area();
-    if (q.u.x < square_share) {
-      const T ux = std::min(q.u.x / square_share, T(1));
-      return AreaSample<T>{square_.sample(Vec2<T>(ux, q.u.y)), T(1) / area()};
-    }
-    const T ux = std::clamp((q.u.x - square_share) / (T(1) - square_share), T(0), T(1));
-    const T s = interface_half_size();
-    return AreaSample<T>{interface_point((T(2) * ux - T(1)) * s, (T(2) * q.u.y - T(1)) * s), T(1) / area()};
+    return detail::sample_square_or_level(square_, q.u, area(), [this](const Vec2<T>& u) {
+      const T s = interface_half_size();
+      return interface_point((T(2) * u.x - T(1)) * s, (T(2) * u.y - T(1)) * s);
+    });
   }
 
   /// The nearest of the square and the interface crossed at t in (0, t_max).
   [[nodiscard]] std::optional<Hit<T>> intersect(const IntersectQuery<T>& q) const noexcept {
-    std::optional<Hit<T>> hit = square_.intersect(q.ray, q.t_max);
-    const T t_max = hit ? hit->distance : q.t_max;
-    if (q.ray.direction.z != T(0)) {
-      const T t = (p_.depth - q.ray.origin.z) / q.ray.direction.z;
-      if (t > T(0) && t < t_max) {
-        const Vec3<T> x = q.ray.at(t);
-        if (in_interface(x.x, x.y)) hit = Hit<T>{interface_point(x.x, x.y), t};
-      }
-    }
-    return hit;
+    return detail::intersect_square_and_level(
+        square_, q, p_.depth, [this](T x, T y) { return in_interface(x, y); },
+        [this](T x, T y) { return interface_point(x, y); });
   }
 
   /// Blocked by the square or the interface (two ends on the same surface's plane are
   /// blocked); a `direction` end is visible when the ray towards it escapes.
   [[nodiscard]] bool visible(const VisibilityQuery<T>& q) const noexcept {
-    const bool from_dir = q.from.kind == PointKind::direction;
-    const bool to_dir = q.to.kind == PointKind::direction;
-    if (from_dir && to_dir) return false;
-    if (from_dir || to_dir) {
-      const SurfacePoint<T>& o = from_dir ? q.to : q.from;
-      const SurfacePoint<T>& d = from_dir ? q.from : q.to;
-      return !intersect(IntersectQuery<T>{Ray<T>{o.position, glm::normalize(d.position)}});
-    }
-    const Vec3<T>& a = q.from.position;
-    const Vec3<T>& b = q.to.position;
-    return !detail::crosses_plane(a, b, T(0), [this](T x, T y) { return square_.contains(x, y); }) &&
-           !detail::crosses_plane(a, b, p_.depth, [this](T x, T y) { return in_interface(x, y); });
+    return detail::visible_square_and_level(
+        square_, q, p_.depth, [this](T x, T y) { return in_interface(x, y); },
+        [this](const IntersectQuery<T>& r) { return intersect(r); });
   }
 
   // ---- radiometry --------------------------------------------------------------------
