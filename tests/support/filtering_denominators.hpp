@@ -57,6 +57,19 @@ auto voxel_kernel_oracle(const Pool& pool, const Grid& grid, const Canonical& ca
 /// `kernel(end, start)` is the kernel value joining the end y_t of one pooled segment to the
 /// start x_s of another (0 outside the support); a segment is never its own technique sample. Checks D(s) for every segment within 1e-12
 /// relative (double; float scenes: 1e-4, the sums run in another order) and returns
+/// Whether pooled segment s is a kept chain (only the light start draws it: a light start's own
+/// chain to a light end off the surfaces, a point light, the sun or PhF's sky; the draw's
+/// density is kept), judged from how it was drawn and where it ends, not from the pool's kept
+/// flag; and whether it is a straight segment to a Dirac light (the light sampler's word).
+template <class Pool>
+std::pair<bool, bool> kept_or_dirac(const Pool& pool, std::uint32_t s) {
+  const auto f = pool.flags[s];
+  const bool chain = (f & filtering::chain_segment) != 0;
+  const bool kept = chain && (f & filtering::light_start) && pool.segments[s].y.kind != PointKind::surface;
+  const bool dirac_end = !chain && (f & filtering::delta_light);
+  return {kept, dirac_end};
+}
+
 /// {segments checked, segments with more than one technique sample}.
 /// `extra(s)` is sum_u N_u p_u(s) of the user's techniques (FilteringTechnique), written out
 /// by the caller; none by default.
@@ -81,10 +94,11 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
     const auto f = pool.flags[s];
     const bool chain = (f & filtering::chain_segment) != 0;
     const bool on_surface = seg.x.kind == PointKind::surface;
-    const bool plain = !chain && !(f & filtering::delta_light) && on_surface;
+    const auto [kept, dirac_end] = kept_or_dirac(pool, s);
+    const bool plain = !chain && !dirac_end && on_surface;
     // What a light technique can draw: any segment from a surface point, through delta
     // reflections and transmissions (a chain), to a non-Dirac end.
-    const bool light_drawable = !(f & filtering::delta_light) && on_surface;
+    const bool light_drawable = !kept && !dirac_end && on_surface;
     // Area x solid angle at y to the segment's measure: area at x, or for a chain area x solid
     // angle at x (etendue: cos_y dA_y dw_y = cos_x dA_x dw_x).
     const double to_segment_measure =
@@ -99,7 +113,7 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
       if (pool.flags[t] & filtering::camera_technique) {
         const double k = kernel(t, s);
         camera_points += k;
-        if (k > 0 && !(f & filtering::delta_light)) {
+        if (k > 0 && !kept && !dirac_end) {
           const double measure = chain ? 1.0 : double(solid_angle_to_area(T(1), seg.x, seg.y));
           d += k * measure *
                double(bsdf.pdf(BsdfQuery<T>{pool.segments[t].y, -pool.last_direction[t], pool.first_direction[s], Transport::radiance}));
@@ -141,7 +155,7 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
       d += n_light * double(e.position) * double(e.direction) * to_segment_measure;
     }
     // The user's techniques: straight segments only.
-    if (!chain && !(f & filtering::delta_light)) {
+    if (!chain && !dirac_end) {
       const double p = extra(s);
       d += p;
       techniques += p > 0;
@@ -149,7 +163,8 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
     // A Dirac light's chain (point light or sun through delta bounces): only the light start
     // draws it, with a density a local computation cannot give (a curved mirror's Jacobian), so
     // every other technique must give it 0 and the draw's N_L p is kept.
-    if (filtering::dirac_chain(pool, s)) {
+    CHECK(filtering::dirac_chain(pool, s) == kept);
+    if (kept) {
       CHECK(d == 0.0);
       CHECK(pool.density[s] > 0);
       ++checked;
@@ -180,7 +195,8 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
     const auto f = pool.flags[s];
     const bool chain = (f & filtering::chain_segment) != 0;
     const bool on_surface = seg.x.kind == PointKind::surface;
-    const bool light_drawable = !(f & filtering::delta_light) && on_surface;
+    const auto [kept, dirac_end] = kept_or_dirac(pool, s);
+    const bool light_drawable = !kept && !dirac_end && on_surface;
     const double to_segment_measure =
         chain ? double(std::abs(glm::dot(seg.x.normal, pool.first_direction[s]))) / double(std::abs(glm::dot(seg.y.normal, pool.last_direction[s])))
         : seg.y.kind == PointKind::direction ? double(std::abs(glm::dot(seg.x.normal, pool.last_direction[s])))  // no 1 / d^2 at infinity
@@ -197,7 +213,7 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
         ++terms;
       }
     }
-    if (filtering::dirac_chain(pool, s)) dl += double(pool.density[s]), ++terms;  // the light start's, kept
+    if (kept) dl += double(pool.density[s]), ++terms;  // the light start's, kept
     if (light_drawable)
       for (std::uint32_t u = 0; u < pool.size(); ++u) {
         if (!(pool.flags[u] & filtering::light_technique) || u == s) continue;

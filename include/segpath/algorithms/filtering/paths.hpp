@@ -171,7 +171,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   // transmissions too: where the chain's two ends lie in one medium (both outside a glass
   // object), its importance throughput is its radiance throughput (the (eta_i / eta_t)^2 of
   // each refraction cancel in and out) and the etendue's n^2 cancels; docs/filtering.md.
-  const bool sky_chain = !first->delta && r.segment.y.kind == PointKind::direction && !ctx.techniques.camera_successors;
+  bool sky_chain = !first->delta && r.segment.y.kind == PointKind::direction && !ctx.techniques.camera_successors;
   bool chains = first->delta || sky_chain || r.segment.y.kind == PointKind::surface;
   if (first->delta || sky_chain) r.density = T(ctx.light_paths()) * first->pdf;  // used if it becomes a chain
   // No depth limit (Russian roulette with c at every non-delta vertex, TechniqueSet::
@@ -219,6 +219,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
     r = predecessor;
     delta_bounces = 0;
     chains = true;
+    sky_chain = false;  // a predecessor's chain is drawn by every light predecessor: not kept
   }
 }
 
