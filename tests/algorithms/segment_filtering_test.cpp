@@ -209,7 +209,8 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
     // Each iteration's image mean is one sample (pixels of one iteration are correlated).
     testing::RunningStats stats;
     DropCounters drops;
-    for (std::uint64_t it = 1; it <= 60; ++it) {
+    const std::uint64_t iterations = mode == FilteringMode::mvf ? 60 : 600;
+    for (std::uint64_t it = 1; it <= iterations; ++it) {
       Framebuffer<double> image(16, 16);
       method.render_iteration_at_cell(scene, it - 1, 0.5, image, drops);
       double mean = 0;
@@ -226,26 +227,33 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
   }
 }
 
-TEST_CASE("the BDPF furnace test has the power to see a 1 % error", "[algorithms][stat]") {
+// The power to see a 0.1 % error: a voxel kernel 1.02 times too large shifts BDPF by +0.15 %
+// (the denominator oracle sees it exactly; this is the statistical check of the same). BDPF with
+// next-event segments is the furnace's lowest-variance filtering estimator.
+TEST_CASE("the BDPF furnace test has the power to see a 0.1 % error", "[algorithms][stat]") {
   const PhotographedSlab<double> scene(furnace, 16);
   FilteringOptions<double> o;
   o.max_length = 3;
   o.jitter = false;
   o.light_path_ratio = 1.0;
+  o.next_event = true;
   double expected = 0;
   for (unsigned k = 0; k < 3; ++k) expected += scene.bounce_radiance(testing::SlabSide::a, k);
   const SegmentFiltering<PhotographedSlab<double>> right(o);
   testing::RunningStats good;
-  for (std::uint64_t it = 1; it <= 40; ++it) {
+  DropCounters drops;
+  for (std::uint64_t it = 1; it <= 1200; ++it) {
     Framebuffer<double> image(16, 16);
-    DropCounters drops;
     right.render_iteration_at_cell(scene, it - 1, 0.5, image, drops);
     double mean = 0;
     for (auto v : image.pixels()) mean += v;
     good.add(mean / 256.0);
   }
+  INFO(good.mean() << " +- " << good.standard_error() << " vs " << expected);
+  CHECK(drops.total() == 0);
   CHECK_FALSE(testing::student_t_test(good, expected).rejects(0.001));
-  CHECK(testing::student_t_test(good, expected * 1.01).rejects(0.001));  // 1 % off is caught
+  CHECK(testing::student_t_test(good, expected * 1.001).rejects(0.001));  // 0.1 % off is caught
+  CHECK(testing::student_t_test(good, expected * 0.999).rejects(0.001));
 }
 
 
