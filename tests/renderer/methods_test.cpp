@@ -390,23 +390,23 @@ TEST_CASE("BDPF and PhF denominators on every box count chains from both sides a
       const auto& clustering = clustered.clustering;
       segpath::filtering::LightSide<float> side;
       segpath::filtering::compute_densities(clustered.context, clustering, segpath::SerialFor{}, &side);
-      std::size_t camera_chains = 0, light_chains = 0, light_transmission_chains = 0, dirac_chains = 0;
+      std::size_t camera_chains = 0, light_chains = 0, light_transmission_chains = 0, kept_chains = 0;
       for (std::size_t i = 0; i < pool.size(); ++i) {
         if (!(pool.flags[i] & segpath::filtering::chain_segment)) continue;
-        dirac_chains += segpath::filtering::dirac_chain(pool, i);
+        kept_chains += segpath::filtering::kept_chain(pool, i);
         const bool camera = (pool.flags[i] & segpath::filtering::camera_born) != 0;
         ++(camera ? camera_chains : light_chains);
         light_transmission_chains += !camera && (pool.flags[i] & segpath::filtering::transmission_chain);
       }
       INFO("chains: camera " << camera_chains << ", light " << light_chains << " (through glass "
-                             << light_transmission_chains << "), kept " << dirac_chains);
+                             << light_transmission_chains << "), kept " << kept_chains);
       // The sky's light paths start on a disk around the whole box: few of them hit the spheres.
       CHECK(camera_chains > (bdpf ? 20 : 5));
       CHECK(light_chains > (box == 3 ? 4 : 20));
       if (box != 1) CHECK(light_transmission_chains > (box == 3 ? 1 : 5));  // boxes 0, 2, 3 have the glass sphere
       if (bdpf) CHECK(pool.next_event_segments > (box == 3 ? 100 : 200));
-      if (box == 0 || box == 2) CHECK(dirac_chains > 5);  // the sun's or the point light's caustics
-      if (box == 3 && !bdpf) CHECK(dirac_chains > 0);    // PhF's sky chains
+      if (box == 0 || box == 2) CHECK(kept_chains > 5);  // the sun's or the point light's caustics
+      if (box == 3 && !bdpf) CHECK(kept_chains > 0);    // PhF's sky chains
       const auto kernel = segpath::testing::voxel_kernel_oracle(
           pool, segpath::filtering::grid(filter.options(), 0.3f, clustered.context.stream),
           [](const segpath::SurfacePoint<float>& p) { return p.position; });

@@ -163,7 +163,7 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
     // A Dirac light's chain (point light or sun through delta bounces): only the light start
     // draws it, with a density a local computation cannot give (a curved mirror's Jacobian), so
     // every other technique must give it 0 and the draw's N_L p is kept.
-    CHECK(filtering::dirac_chain(pool, s) == kept);
+    CHECK(filtering::kept_chain(pool, s) == kept);
     if (kept) {
       CHECK(d == 0.0);
       CHECK(pool.density[s] > 0);

@@ -38,7 +38,7 @@ void finish_densities(Context<Scn>& ctx, const std::vector<typename Scn::Scalar>
         T d = camera_sum[i] + light_sum[i] + (bridge_sum.empty() ? T(0) : bridge_sum[i]);
     if (f & sensor_segment) d += sensor_density(scene, pool, i);
     if (const T p_light = light_start_density(scene, pool, i, light_paths); p_light > T(0)) {
-      if (f & delta_light) d = T(0);  // only light sampling produces a Dirac light end
+      if (f & (delta_light | kept_density)) d = T(0);  // only the light start draws a Dirac end or a kept chain
       d += p_light;
     }
     if (!camera_points_at_x.empty() && camera_points_at_x[i] > T(0)) {

@@ -163,7 +163,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   // (light_measure, by etendue): a light predecessor's end is a surface point whatever the
   // light, so every predecessor chains, and so does the light start from an area light. From a
   // Dirac light (point, sun) the chain has no local density (a curved mirror's Jacobian enters)
-  // but only the light start draws it: a dirac_chain keeps the first segment's G and N_L p
+  // but only the light start draws it: a kept_chain keeps the first segment's G and N_L p
   // (pool.hpp). A sky's chain is drawn by camera successors too (a diffuse point's chain through
   // glass to the sky), whose density would need the chain's disk point: where camera successors
   // draw (MVF, BDPF) it ends the light path and camera chains carry it; where they do not (PhF)
@@ -171,9 +171,10 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   // transmissions too: where the chain's two ends lie in one medium (both outside a glass
   // object), its importance throughput is its radiance throughput (the (eta_i / eta_t)^2 of
   // each refraction cancel in and out) and the etendue's n^2 cancels; docs/filtering.md.
-  bool sky_chain = !first->delta && r.segment.y.kind == PointKind::direction && !ctx.techniques.camera_successors;
-  bool chains = first->delta || sky_chain || r.segment.y.kind == PointKind::surface;
-  if (first->delta || sky_chain) r.density = T(ctx.light_paths()) * first->pdf;  // used if it becomes a chain
+  const bool sky_chain = !first->delta && r.segment.y.kind == PointKind::direction && !ctx.techniques.camera_successors;
+  bool kept = first->delta || sky_chain;  // a chain of the light start's own would be a kept_chain
+  bool chains = kept || r.segment.y.kind == PointKind::surface;
+  if (kept) r.density = T(ctx.light_paths()) * first->pdf;  // used if it becomes a chain
   // No depth limit (Russian roulette with c at every non-delta vertex, TechniqueSet::
   // light_continuation): a depth limit would make a light-born segment's ability to draw a
   // predecessor depend on its depth, which the path-conditioned weighting cannot see (it deduces
@@ -194,8 +195,8 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
       r.segment.x = hit->point;
       r.first_direction = -prev->direction;
       if (r.pieces < 0xffff) ++r.pieces;
-      r.flags |= chain_segment | (sky_chain ? delta_light : 0);  // a kept chain (dirac_chain) keeps its first G
-      if (!(r.flags & delta_light)) r.geometry = endpoint_cosine(r.segment.x, r.first_direction);
+      r.flags |= chain_segment | (kept ? kept_density : 0);
+      if (!kept) r.geometry = endpoint_cosine(r.segment.x, r.first_direction);  // a kept chain keeps its first G
       continue;
     }
     // A technique sample whether or not its draw succeeded (see trace_camera_path); a
@@ -219,7 +220,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
     r = predecessor;
     delta_bounces = 0;
     chains = true;
-    sky_chain = false;  // a predecessor's chain is drawn by every light predecessor: not kept
+    kept = false;  // a predecessor's chain is drawn by every light predecessor: not kept
   }
 }
 

@@ -21,10 +21,11 @@ enum PoolFlag : std::uint16_t {
   camera_technique = 8,     ///< a camera successor draw was attempted from it
   light_technique = 16,     ///< a light predecessor draw was attempted from it
   light_start = 32,         ///< drawn by the light-start sampler
-  delta_light = 64,         ///< its light end is a Dirac (point light, sun), or it is PhF's sky chain: only the light start draws it
+  delta_light = 64,         ///< its light end is a Dirac (point light, sun): only light sampling draws it
   bridge_segment = 128,     ///< drawn by the bridge technique
   transmission_chain = 256, ///< a chain through a delta transmission
   extra_technique = 512,    ///< drawn by a technique of the user's list (FilteringTechnique)
+  kept_density = 1024,      ///< a chain only its light start draws (kept_chain): its D is the draw's, Record::density
 };
 
 inline constexpr std::uint32_t no_parent = 0xffffffffu;
@@ -61,7 +62,7 @@ struct Record {
   Vec3<T> first_direction, last_direction;
   S chain;
   T geometry = 0, sensor_weight = 0;
-  /// Only for a Dirac chain (dirac_chain): its MMIS denominator, N_L times its first segment's
+  /// Only for a kept chain (kept_chain): its MMIS denominator, N_L times its first segment's
   /// density; every other segment's is computed from the pool (densities.hpp).
   T density = 0;
   std::uint32_t pixel = 0;
@@ -110,11 +111,11 @@ void append(Pool<T, S>& pool, const std::vector<std::vector<Record<T, S>>>& chun
 // sensor segment) or a Dirac light end; a bridge any straight segment between two surface points.
 template <class Pl>
 [[nodiscard]] bool camera_reachable(const Pl& pool, std::size_t s) noexcept {
-  return !(pool.flags[s] & delta_light);
+  return !(pool.flags[s] & (delta_light | kept_density));
 }
 template <class Pl>
 [[nodiscard]] bool light_reachable(const Pl& pool, std::size_t s) noexcept {
-  return !(pool.flags[s] & delta_light) && pool.segments[s].x.kind == PointKind::surface;
+  return !(pool.flags[s] & (delta_light | kept_density)) && pool.segments[s].x.kind == PointKind::surface;
 }
 template <class Pl>
 [[nodiscard]] bool bridge_reachable(const Pl& pool, std::size_t s) noexcept {
@@ -130,10 +131,10 @@ template <class Pl>
 /// technique draws such a chain (a camera chain cannot end on a Dirac), so its balance weight is
 /// 1 and its denominator, N_L times its first segment's density, is kept from the draw (its G is
 /// the first segment's: G w is the photon's 1 / (N_L p_position p_direction)). So is a sky's
-/// chain where no camera successor draws (PhF).
+/// chain where no camera successor draws (PhF). A light predecessor's chain is never kept.
 template <class Pl>
-[[nodiscard]] bool dirac_chain(const Pl& pool, std::size_t s) noexcept {
-  return (pool.flags[s] & (chain_segment | delta_light)) == (chain_segment | delta_light);
+[[nodiscard]] bool kept_chain(const Pl& pool, std::size_t s) noexcept {
+  return (pool.flags[s] & kept_density) != 0;
 }
 /// Whether a delta scattering at p from `fixed` to `sampled` crosses the surface.
 template <Real T>

@@ -65,7 +65,7 @@ template <LightSampledScene Scn>
                                                     std::size_t i, std::uint64_t light_paths) {
   using T = typename Scn::Scalar;
   const auto f = pool.flags[i];
-  if (dirac_chain(pool, i)) return pool.density[i];  // kept from the draw (pool.hpp)
+  if (kept_chain(pool, i)) return pool.density[i];  // kept from the draw (pool.hpp)
   const Segment<T>& s = pool.segments[i];
   const bool light_chain = (f & chain_segment) && s.y.kind == PointKind::surface && light_reachable(pool, i);
   if (light_paths == 0 || s.x.kind != PointKind::surface || ((f & chain_segment) && !light_chain)) return T(0);

@@ -84,7 +84,7 @@ template <LightSampledScene Scn, class Smp>
 [[nodiscard]] typename Scn::Scalar extra_density(const Context<Scn>& ctx, const FilteringTechnique<Smp>& technique,
                                                  std::size_t i) {
   using T = typename Scn::Scalar;
-  if (ctx.pool.flags[i] & (chain_segment | delta_light)) return T(0);
+  if (ctx.pool.flags[i] & (chain_segment | delta_light | kept_density)) return T(0);
   const T p = technique.sampler.unoccluded_pdf(ctx.scene, typename Smp::Technique{}, ctx.pool.segments[i]);
   return std::isfinite(p) && p > T(0) ? T(draw_count(technique, ctx.scene)) * p : T(0);
 }
