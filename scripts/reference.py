@@ -13,6 +13,9 @@
       own noise adds to every relMSE measured against it:
         relMSE(A, REF) ~ e_A + f,  relMSE(B, REF) ~ e_B + f,  mean (A - B)^2 / (REF^2 + 1e-2) ~ e_A + e_B,
       so f ~ (relMSE(A, REF) + relMSE(B, REF) - that) / 2.
+  scripts/reference.py relmse IMAGE.pfm REF.pfm
+      prints IMAGE's relMSE against REF as segpath-render computes it (for another renderer's
+      PFM, e.g. SmallVCM's) and both image means.
 Only the standard library; PFM as segpath-render writes it (RGB, "PF").
 """
 
@@ -82,6 +85,15 @@ def floor(ref, a, b):
           f"REF's own relMSE f = {(xr + yr - xy) / 2:.5f}")
 
 
+def relmse(image, ref):
+    _, _, x = read_pfm(image)
+    _, _, r = read_pfm(ref)
+    if len(x) != len(r):
+        raise ValueError("the images differ in size")
+    total = sum((u - v) ** 2 / (v * v + 1e-2) for u, v in zip(x, r))
+    print(f"relMSE {total / len(r):.5f}, mean {sum(x) / len(x):.5f}, reference mean {sum(r) / len(r):.5f}")
+
+
 if __name__ == "__main__":
     if len(sys.argv) >= 4 and sys.argv[1] == "average":
         average(sys.argv[2], sys.argv[3:])
@@ -89,5 +101,7 @@ if __name__ == "__main__":
         halves(sys.argv[2], sys.argv[3])
     elif len(sys.argv) == 5 and sys.argv[1] == "floor":
         floor(sys.argv[2], sys.argv[3], sys.argv[4])
+    elif len(sys.argv) == 4 and sys.argv[1] == "relmse":
+        relmse(sys.argv[2], sys.argv[3])
     else:
         sys.exit(__doc__)
