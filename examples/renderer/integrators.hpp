@@ -61,6 +61,7 @@ struct MethodOptions {
   /// bdpf: chain weighting, path-conditioned (unbiased) or the paper's prod 1 / D
   segpath::FilteringWeighting weighting = segpath::FilteringOptions<float>{}.weighting;
   bool print_stats = false;      ///< mvf, phf, bdpf: one line of FilteringStats per iteration on stderr
+  std::optional<std::size_t> transfer_cache_mib;  ///< mvf, phf, bdpf: FilteringOptions::transfer_cache_bytes in MiB
 };
 
 /// The emitter of a RenderScene by reference: PathTracer copies scene.emitter() once per
@@ -389,6 +390,7 @@ class FilteringMethod {
     f.bridges = o.bridges;
     f.next_event = o.next_event;
     f.weighting = o.weighting;
+    if (o.transfer_cache_mib) f.transfer_cache_bytes = *o.transfer_cache_mib << 20;
     return f;
   }
   static void print(std::uint64_t iteration, const segpath::FilteringStats& f) {

@@ -53,6 +53,7 @@ struct Options {
   bool next_event = segpath::FilteringOptions<float>{}.next_event;
   std::string weighting = segpath::to_string(segpath::FilteringOptions<float>{}.weighting);
   bool stats = false;
+  std::optional<std::size_t> transfer_cache_mib;
   std::vector<std::string> out;
   std::optional<std::string> reference;
   // OBJ scenes only: a look-at camera ("x,y,z" vectors).
@@ -186,6 +187,7 @@ int run(const Options& o) {
   mo.next_event = o.next_event;
   mo.weighting = o.weighting == "paper" ? segpath::FilteringWeighting::paper : segpath::FilteringWeighting::path_conditioned;
   mo.print_stats = o.stats;
+  mo.transfer_cache_mib = o.transfer_cache_mib;
   auto method = renderer::make_method(o.method, mo);
   if (!method) throw std::runtime_error("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
   const renderer::RenderScene scene = load_scene(o);
@@ -293,6 +295,10 @@ int main(int argc, char** argv) {
                  "bdpf: chain weighting, path (path-conditioned, unbiased) or paper (prod 1 / D, biased)")
       ->check(CLI::IsMember({"path", "paper"}))
       ->capture_default_str();
+  app.add_option("--transfer-cache", o.transfer_cache_mib,
+                 "mvf/phf/bdpf: MiB of pair transfers cached per iteration (0: none, every sweep evaluates them); "
+                 "default 1024")
+      ->check(CLI::Range(std::size_t(0), std::size_t(1) << 20));
   app.add_flag("--stats", o.stats,
                "mvf/phf/bdpf: print each iteration's segments, clusters, pair evaluations and stage times on stderr");
 #if SEGPATH_RENDER_HAS_OBJ
