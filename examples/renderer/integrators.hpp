@@ -372,10 +372,14 @@ class FilteringMethod {
     const segpath::FilteringStats f = filter_.render_iteration_at_cell(
         counting, iteration, filter_.cell_size(*initial_cell_, iteration), *image_, stats.dropped, parallel);
     if (print_stats_) print(iteration, f);
+    last_stats_ = f;
     stats.rays += counting.take_rays();
     stats.paths += accumulate.pixel_count();
     detail::accumulate_image(*image_, accumulate);
   }
+
+  /// The last iteration's counters (segments, bytes per segment, transfer cache), if any.
+  [[nodiscard]] const std::optional<segpath::FilteringStats>& last_stats() const noexcept { return last_stats_; }
 
  private:
   static segpath::FilteringOptions<T> filtering_options(const MethodOptions& o) {
@@ -411,6 +415,7 @@ class FilteringMethod {
   bool print_stats_ = false;
   std::optional<T> initial_cell_;
   std::optional<segpath::Framebuffer<Color>> image_;
+  std::optional<segpath::FilteringStats> last_stats_;
 };
 
 /// The light-transport family a filtering method cannot sample in `scene`, if any (a one-line

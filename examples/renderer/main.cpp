@@ -28,6 +28,7 @@
 #include <cstdio>
 #include <exception>
 #include <filesystem>
+#include <fstream>
 #include <optional>
 #include <string>
 #include <thread>
@@ -54,6 +55,7 @@ struct Options {
   std::string weighting = segpath::to_string(segpath::FilteringOptions<float>{}.weighting);
   bool stats = false;
   std::optional<std::size_t> transfer_cache_mib;
+  std::optional<double> memory_limit_gb;
   std::vector<std::string> out;
   std::optional<std::string> reference;
   // OBJ scenes only: a look-at camera ("x,y,z" vectors).
@@ -134,6 +136,65 @@ renderer::RenderScene load_scene(const Options& o) {
   throw std::runtime_error("--scene " + o.scene + ": unknown scene (use cornell0, cornell1, cornell2, cornell3 or a .obj file)");
 }
 
+/// "12.3 kB", "12.3 MB" or "2.29 GB".
+std::string memory_size(std::uint64_t bytes) {
+  char text[32];
+  if (bytes < 1000000ull)
+    std::snprintf(text, sizeof text, "%.1f kB", double(bytes) * 1e-3);
+  else if (bytes < 1000000000ull)
+    std::snprintf(text, sizeof text, "%.1f MB", double(bytes) * 1e-6);
+  else
+    std::snprintf(text, sizeof text, "%.2f GB", double(bytes) * 1e-9);
+  return text;
+}
+
+/// Bytes of memory the machine has available (MemAvailable of /proc/meminfo); 0 if unknown.
+std::uint64_t available_bytes() {
+  std::ifstream meminfo("/proc/meminfo");
+  std::string key;
+  std::uint64_t kib = 0;
+  std::string unit;
+  while (meminfo >> key >> kib >> unit)
+    if (key == "MemAvailable:") return kib * 1024;
+  return 0;
+}
+
+/// The peak memory a render will need, estimated before it starts. Every method keeps a few
+/// images of the full size; the filtering methods also pool every segment of an iteration, whose
+/// number per pixel one iteration of a pilot render 64 pixels wide (same scene, method and
+/// options) measures, plus their transfer cache up to its budget. Measured against the peak
+/// resident size of BDPF on the four boxes and PhF on box 1 it is 0.94-1.11x (docs/figures.md).
+std::uint64_t estimated_peak_bytes(const Options& o, const renderer::MethodOptions& mo) {
+  const double pixels = double(o.width) * double(o.height);
+  double bytes = 64.0 * pixels;  // accumulator (double RGB), the method's image, the output image
+  if (o.method != "mvf" && o.method != "phf" && o.method != "bdpf") return std::uint64_t(bytes);
+  Options pilot = o;
+  pilot.width = std::min<std::uint32_t>(o.width, 64);
+  pilot.height = std::max<std::uint32_t>(1, std::uint32_t(std::lround(double(o.height) * pilot.width / o.width)));
+  const renderer::RenderScene scene = load_scene(pilot);
+  auto method = renderer::make_method(o.method, mo);
+  renderer::Accumulator accumulate(pilot.width, pilot.height);
+  renderer::Stats stats;
+  std::optional<segpath::FilteringStats> f;
+  std::visit(
+      [&](auto& m) {
+        if constexpr (requires { m.last_stats(); }) {
+          m.render_iteration(scene, 0, accumulate, stats, renderer::TbbFor{});
+          f = m.last_stats();
+        }
+      },
+      *method);
+  if (!f) return std::uint64_t(bytes);
+  const double scale = pixels / (double(pilot.width) * double(pilot.height));
+  // The pool, with the growth of its per-chunk record lists (measured: ~1.1x the pool).
+  bytes += 1.1 * double(f->segments) * scale * double(f->bytes_per_segment);
+  const double cache_budget = mo.transfer_cache_mib ? double(*mo.transfer_cache_mib) * (1 << 20)
+                                                    : double(segpath::FilteringOptions<float>{}.transfer_cache_bytes);
+  bytes += std::min(cache_budget, double(f->transfer_cache_bytes) * scale);
+  return std::uint64_t(bytes);
+}
+
+
 /// A progress bar with ETA on stderr, only when stderr is a terminal, redrawn at most ten
 /// times per second.
 class Progress {
@@ -191,6 +252,17 @@ int run(const Options& o) {
   auto method = renderer::make_method(o.method, mo);
   if (!method) throw std::runtime_error("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
   const renderer::RenderScene scene = load_scene(o);
+  {
+    tbb::global_control pilot_threads(tbb::global_control::max_allowed_parallelism, o.threads);
+    const std::uint64_t estimate = estimated_peak_bytes(o, mo);
+    const std::uint64_t limit = o.memory_limit_gb ? std::uint64_t(*o.memory_limit_gb * 1e9) : available_bytes();
+    const bool filtering = o.method == "mvf" || o.method == "phf" || o.method == "bdpf";
+    if (limit > 0 && estimate > limit)
+      throw std::runtime_error("this render needs about " + memory_size(estimate) + ", more than " +
+                               (o.memory_limit_gb ? "--memory-limit" : "the memory available") + " (" + memory_size(limit) +
+                               "); lower it with " + (filtering ? "--transfer-cache, --beta or " : "") + "--width/--height");
+    if (o.stats) std::fprintf(stderr, "segpath-render: estimated peak memory %s\n", memory_size(estimate).c_str());
+  }
   if (const auto family = renderer::unsampled_family(o.method, scene))
     std::fprintf(stderr, "segpath-render: warning: %s\n", family->c_str());
 
@@ -299,6 +371,10 @@ int main(int argc, char** argv) {
                  "mvf/phf/bdpf: MiB of pair transfers cached per iteration (0: none, every sweep evaluates them); "
                  "default 1024")
       ->check(CLI::Range(std::size_t(0), std::size_t(1) << 20));
+  app.add_option("--memory-limit", o.memory_limit_gb,
+                 "GB of memory the render may use; a render estimated to need more stops before it starts "
+                 "(default: the memory available)")
+      ->check(positive_finite);
   app.add_flag("--stats", o.stats,
                "mvf/phf/bdpf: print each iteration's segments, clusters, pair evaluations and stage times on stderr");
 #if SEGPATH_RENDER_HAS_OBJ
