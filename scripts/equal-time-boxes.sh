@@ -5,11 +5,12 @@
 # for the references (made once, kept in OUT) and 22 min for the runs.
 #   scripts/equal-time-boxes.sh [build-dir] [smallvcm binary] [out-dir]
 # SmallVCM: ../shared/peers/build-smallvcm.sh builds it (default /tmp/smallvcm-peer/smallvcm).
-# Its -t is CPU seconds summed over threads, so -t 2T for T seconds of wall time on 2 threads.
+# Its -t is CPU seconds summed over threads, so -t 2T for T seconds of wall time on 2 threads;
+# it uses every processor, so taskset keeps it on two. Needs bc and taskset (util-linux).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=$(cd "${1:-$root/build}" && pwd)
-smallvcm=${2:-/tmp/smallvcm-peer/smallvcm}
+smallvcm=$(realpath "${2:-/tmp/smallvcm-peer/smallvcm}")
 out=${3:-$root/out/equal-time}
 render=$build/examples/segpath-render
 reference=$root/scripts/reference.py
@@ -38,7 +39,7 @@ for t in 10 30; do
     done
     for a in vcm bpt pt; do
       start=$(date +%s.%N)
-      "$smallvcm" -s $box -a $a -t $((2 * t)) -o smallvcm_${box}_${a}_$t.pfm > /dev/null
+      taskset -c 0,1 "$smallvcm" -s $box -a $a -t $((2 * t)) -o smallvcm_${box}_${a}_$t.pfm > /dev/null
       end=$(date +%s.%N)
       echo "t $t box $box smallvcm $a: wall $(echo "$end - $start" | bc) s, $("$reference" relmse smallvcm_${box}_${a}_$t.pfm ref$box.pfm)" | tee -a equal_time.txt
     done

@@ -162,17 +162,22 @@ std::uint64_t available_bytes() {
 /// The peak memory a render will need, estimated before it starts. Every method keeps a few
 /// images of the full size; the filtering methods also pool every segment of an iteration, whose
 /// number per pixel one iteration of a pilot render 64 pixels wide (same scene, method and
-/// options) measures, plus their transfer cache up to its budget. Measured against the peak
+/// options) measures, plus their transfer cache up to its budget (scaled linearly: with a fixed
+/// --radius the full render's clusters are fuller and the cache nearer its budget). Measured against the peak
 /// resident size of BDPF on the four boxes and PhF on box 1 it is 0.94-1.11x (docs/figures.md).
 std::uint64_t estimated_peak_bytes(const Options& o, const renderer::MethodOptions& mo) {
   const double pixels = double(o.width) * double(o.height);
   double bytes = 64.0 * pixels;  // accumulator (double RGB), the method's image, the output image
   if (o.method != "mvf" && o.method != "phf" && o.method != "bdpf") return std::uint64_t(bytes);
+  // At most 64 x 64 pixels, the render's aspect kept (one side may shrink to 1 pixel).
   Options pilot = o;
-  pilot.width = std::min<std::uint32_t>(o.width, 64);
-  pilot.height = std::max<std::uint32_t>(1, std::uint32_t(std::lround(double(o.height) * pilot.width / o.width)));
+  const double shrink = std::min(1.0, 64.0 / std::sqrt(pixels));
+  pilot.width = std::max<std::uint32_t>(1, std::uint32_t(std::lround(o.width * shrink)));
+  pilot.height = std::max<std::uint32_t>(1, std::uint32_t(std::lround(o.height * shrink)));
   const renderer::RenderScene scene = load_scene(pilot);
-  auto method = renderer::make_method(o.method, mo);
+  renderer::MethodOptions quiet = mo;
+  quiet.print_stats = false;
+  auto method = renderer::make_method(o.method, quiet);
   renderer::Accumulator accumulate(pilot.width, pilot.height);
   renderer::Stats stats;
   std::optional<segpath::FilteringStats> f;
@@ -255,11 +260,12 @@ int run(const Options& o) {
   {
     tbb::global_control pilot_threads(tbb::global_control::max_allowed_parallelism, o.threads);
     const std::uint64_t estimate = estimated_peak_bytes(o, mo);
-    const std::uint64_t limit = o.memory_limit_gb ? std::uint64_t(*o.memory_limit_gb * 1e9) : available_bytes();
+    // In double: a tiny --memory-limit must not round to 0 ("unknown"), a huge one not overflow.
+    const double limit = o.memory_limit_gb ? *o.memory_limit_gb * 1e9 : double(available_bytes());
     const bool filtering = o.method == "mvf" || o.method == "phf" || o.method == "bdpf";
-    if (limit > 0 && estimate > limit)
+    if (limit > 0 && double(estimate) > limit)
       throw std::runtime_error("this render needs about " + memory_size(estimate) + ", more than " +
-                               (o.memory_limit_gb ? "--memory-limit" : "the memory available") + " (" + memory_size(limit) +
+                               (o.memory_limit_gb ? "--memory-limit" : "the memory available") + " (" + memory_size(std::uint64_t(std::min(limit, 1e19))) +
                                "); lower it with " + (filtering ? "--transfer-cache, --beta or " : "") + "--width/--height");
     if (o.stats) std::fprintf(stderr, "segpath-render: estimated peak memory %s\n", memory_size(estimate).c_str());
   }

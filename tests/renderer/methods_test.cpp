@@ -407,6 +407,7 @@ TEST_CASE("BDPF and PhF denominators on every box count chains from both sides a
       if (bdpf) CHECK(pool.next_event_segments > (box == 3 ? 100 : 200));
       if (box == 0 || box == 2) CHECK(kept_chains > 5);  // the sun's or the point light's caustics
       if (box == 3 && !bdpf) CHECK(kept_chains > 0);    // PhF's sky chains
+      if (box == 3 && !bdpf) CHECK(light_chains > kept_chains);  // and light predecessors' chains after them
       const auto kernel = segpath::testing::voxel_kernel_oracle(
           pool, segpath::filtering::grid(filter.options(), 0.3f, clustered.context.stream),
           [](const segpath::SurfacePoint<float>& p) { return p.position; });

@@ -55,8 +55,6 @@ auto voxel_kernel_oracle(const Pool& pool, const Grid& grid, const Canonical& ca
 }
 
 /// `kernel(end, start)` is the kernel value joining the end y_t of one pooled segment to the
-/// start x_s of another (0 outside the support); a segment is never its own technique sample. Checks D(s) for every segment within 1e-12
-/// relative (double; float scenes: 1e-4, the sums run in another order) and returns
 /// Whether pooled segment s is a kept chain (only the light start draws it: a light start's own
 /// chain to a light end off the surfaces, a point light, the sun or PhF's sky; the draw's
 /// density is kept), judged from how it was drawn and where it ends, not from the pool's kept
@@ -70,7 +68,10 @@ std::pair<bool, bool> kept_or_dirac(const Pool& pool, std::uint32_t s) {
   return {kept, dirac_end};
 }
 
-/// {segments checked, segments with more than one technique sample}.
+/// `kernel(end, start)` is the kernel value joining the end y_t of one pooled segment to the
+/// start x_s of another (0 outside the support); a segment is never its own technique sample.
+/// Checks D(s) for every segment within 1e-12 relative (double; float scenes: 1e-4, the sums run
+/// in another order) and returns {segments checked, segments with more than one technique sample}.
 /// `extra(s)` is sum_u N_u p_u(s) of the user's techniques (FilteringTechnique), written out
 /// by the caller; none by default.
 template <class Filter, class Scn, class Kernel, class Extra = double (*)(std::uint32_t)>

@@ -106,9 +106,10 @@ void append(Pool<T, S>& pool, const std::vector<std::vector<Record<T, S>>>& chun
 }
 
 // Which segments each conditional technique can produce: a camera successor any segment but
-// one with a Dirac light end (N31); a light predecessor (or the light start, through delta
-// bounces) ends its ray at a surface hit, so never a segment whose x is off the manifold (a
-// sensor segment) or a Dirac light end; a bridge any straight segment between two surface points.
+// one with a Dirac light end (N31) or a kept chain; a light predecessor (or the light start,
+// through delta bounces) ends its ray at a surface hit, so never a segment whose x is off the
+// manifold (a sensor segment), a Dirac light end or a kept chain; a bridge any straight segment
+// between two surface points.
 template <class Pl>
 [[nodiscard]] bool camera_reachable(const Pl& pool, std::size_t s) noexcept {
   return !(pool.flags[s] & (delta_light | kept_density));
