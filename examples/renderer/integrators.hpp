@@ -149,7 +149,8 @@ class PtMethod {
   static constexpr std::string_view name = "pt";
   static constexpr std::string_view description = "path tracing with next-event estimation (MIS)";
 
-  // Russian roulette from the third segment on, as SmallVCM: it changes the noise only.
+  // Russian roulette with SmallVCM's rule (core/roulette.hpp) from the third segment on (SmallVCM
+  // starts at the first; the third is better at equal time here: docs/figures.md).
   explicit PtMethod(const MethodOptions& o)
       : seed_(o.seed), tracer_(segpath::PathTracerOptions{o.max_length, segpath::MisHeuristic::power, 3}) {}
 

@@ -10,6 +10,8 @@
 #include <segpath/testing/sphere_interior.hpp>
 #include <segpath/testing/statistics.hpp>
 
+#include <algorithm>
+#include <cmath>
 #include <vector>
 
 #include "support/catch.hpp"
@@ -108,6 +110,50 @@ TEMPLATE_TEST_CASE("path tracing with NEE is unbiased inside the sphere", "[algo
     CHECK(drops == 0);
     CHECK_FALSE(testing::student_t_test(stats, expected).rejects(alpha));
     CHECK(testing::student_t_test(stats, 1.02 * expected).rejects(alpha));  // the test has power
+  }
+}
+
+// Russian roulette (core/roulette.hpp) inside a uniform sphere (emission 1, albedo rho = 0.2):
+// cosine sampling and uniform area sampling have the same density there, so the MIS weights
+// are 1/2 and bounce k adds (rho beta_k + beta_{k+1}) / 2, beta_k the throughput of the path's
+// first k segments. With the scattering-weight rule the roulette keeps beta where it starts,
+// beta_k = rho^(min(k, r) - 1) for roulette from length r, which bounds every sample; the mean
+// must stay the closed form. The throughput rule (q = max beta) lifts a surviving path to
+// beta ~ 1 and breaks the bound for r >= 2.
+TEMPLATE_TEST_CASE("path tracing with Russian roulette stays unbiased and never lifts a path's throughput", "[algorithms][stat]",
+                   float, double) {
+  using T = TestType;
+  testing::SphereInteriorParameters<T> p;
+  p.emission_mean = 1;
+  p.albedo_mean = T(0.2);
+  const testing::SphereInterior<T> scene(p, {{0, 0, 1}, {T(0.6), T(-0.8), 0}});
+  const std::size_t max_length = 8;
+  const double rho = 0.2;
+  const double alpha = testing::sidak_alpha(0.01, 2 * 3 * 2 * 2);
+  for (const std::size_t roulette_from : {std::size_t(1), std::size_t(2), std::size_t(3)}) {
+    auto beta = [&](std::size_t k) { return std::pow(rho, double(std::min(k, roulette_from)) - 1); };
+    double bound = 1;
+    for (std::size_t k = 1; k < max_length; ++k) bound += (rho * beta(k) + beta(k + 1)) / 2;
+    const PathTracer<testing::SphereInterior<T>> pt({max_length, MisHeuristic::power, roulette_from});
+    for (std::uint32_t pixel = 0; pixel < 2; ++pixel) {
+      double expected = 0;
+      for (unsigned k = 0; k < max_length; ++k) expected += scene.bounce_radiance_at(scene.probe_target(pixel), k);
+      testing::RunningStats stats;
+      double largest = 0;
+      for (std::uint64_t i = 0; i < 20000; ++i) {
+        Pcg32 rng = Pcg32::for_sample(29, pixel, i);
+        RecordingSink<T> sink;
+        pt.estimate(scene, {pixel, i}, rng, sink);
+        stats.add(double(sink.value));
+        largest = std::max(largest, double(sink.value));
+      }
+      INFO("roulette from " << roulette_from << ", probe " << pixel << ": " << stats.mean() << " +- " << stats.standard_error()
+                            << " vs " << expected << ", largest sample " << largest << " (bound " << bound << ")");
+      CHECK(largest <= bound * (1 + 1e-4));
+      CHECK(stats.standard_error() > 0);  // the roulette ran
+      CHECK_FALSE(testing::student_t_test(stats, expected).rejects(alpha));
+      CHECK(testing::student_t_test(stats, 1.02 * expected).rejects(alpha));  // the test has power
+    }
   }
 }
 

@@ -6,6 +6,7 @@
 
 #include "segpath/concepts/estimator.hpp"
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/roulette.hpp"
 #include "segpath/kernels/dirac.hpp"
 #include "segpath/samplers/bridge.hpp"
 #include "segpath/samplers/light_next.hpp"
@@ -20,7 +21,7 @@ namespace segpath {
 
 struct LightTracerOptions {
   std::size_t max_length = 10;  ///< segments per path, the sensor segment included (>= 2)
-  std::size_t roulette_from = 0;  ///< Russian roulette from this many light segments on (0: never)
+  std::size_t roulette_from = 0;  ///< Russian roulette (core/roulette.hpp) from this many light segments on (0: never)
 };
 
 template <LightSampledScene Scn>
@@ -66,9 +67,11 @@ class LightTracer {
       segment = next->segment;
       direction = next->direction;
       if (options_.roulette_from != 0 && light_segments >= options_.roulette_from) {
-        const T survive = std::min(T(0.95), max_component(beta));
-        if (!(rng.template uniform<T>() < survive)) break;
-        beta = beta / survive;
+        const T q = continuation_probability(next->weight, next->delta);
+        if (q < T(1)) {
+          if (!(rng.template uniform<T>() < q)) break;
+          beta = beta / q;
+        }
       }
       if (is_black(beta)) break;
     }

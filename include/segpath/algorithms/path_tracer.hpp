@@ -5,6 +5,7 @@
 
 #include "segpath/concepts/estimator.hpp"
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/roulette.hpp"
 #include "segpath/integrand/contribution.hpp"
 #include "segpath/kernels/dirac.hpp"
 #include "segpath/samplers/bridge.hpp"
@@ -21,7 +22,8 @@ namespace segpath {
 struct PathTracerOptions {
   std::size_t max_length = 10;  ///< segments per path, the sensor segment included (>= 1)
   MisHeuristic heuristic = MisHeuristic::power;
-  /// Russian roulette from this path length on (0: never). Changes noise only.
+  /// Russian roulette (core/roulette.hpp) after every scattering from this path length on (0:
+  /// never). Changes noise only.
   std::size_t roulette_from = 0;
 };
 
@@ -89,9 +91,11 @@ class PathTracer {
       beta = beta * next->weight;
       reached_by_bsdf = !next->delta;
       if (options_.roulette_from != 0 && length >= options_.roulette_from) {
-        const T survive = std::min(T(0.95), max_component(beta));
-        if (!(rng.template uniform<T>() < survive)) break;
-        beta = beta / survive;
+        const T q = continuation_probability(next->weight, next->delta);
+        if (q < T(1)) {
+          if (!(rng.template uniform<T>() < q)) break;
+          beta = beta / q;
+        }
       }
       if (is_black(beta)) break;
     }
