@@ -23,6 +23,8 @@ static_assert(Bsdf<Mirror<Rgb<double>>, Rgb<double>>);
 static_assert(Bsdf<Dielectric<float>, float>);
 static_assert(Bsdf<MaterialSet<Rgb<float>>, Rgb<float>>);
 static_assert(Bsdf<MaterialSet<double>, double>);
+// Path tracing skips next-event estimation at delta-only points through this hook.
+static_assert(HasIsDelta<MaterialSet<Rgb<float>>, Rgb<float>>);
 
 namespace {
 

@@ -16,6 +16,7 @@
 #include <cstddef>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 namespace segpath {
 
@@ -71,8 +72,11 @@ class PathTracer {
       }
       if (length == options_.max_length || s.segment.y.kind != PointKind::surface) break;
 
-      // Next-event estimation: a light-end bridge from y (Dirac junction).
-      if (const auto e = bridge_.sample(scene, {s.segment}, rng); e && e->pdf > T(0)) {
+      // Next-event estimation: a light-end bridge from y (Dirac junction); none from a BSDF
+      // with delta lobes only, whose connection is zero (HasIsDelta, concepts/bsdf.hpp).
+      bool connect = true;
+      if constexpr (HasIsDelta<std::remove_cvref_t<decltype(scene.bsdf())>, S>) connect = !scene.bsdf().is_delta(s.segment.y);
+      if (const auto e = connect ? bridge_.sample(scene, {s.segment}, rng) : Sample{}; e && e->pdf > T(0)) {
         const BsdfQuery<T> query{s.segment.y, -s.direction, e->direction, Transport::radiance};
         const S f = scene.bsdf().eval(query);
         if (!is_black(f)) {

@@ -90,4 +90,13 @@ concept HasLambertianAlbedo = requires(const B& b, const SurfacePoint<spectrum_s
   { b.lambertian_albedo(p) } -> std::same_as<std::optional<S>>;
 };
 
+/// Optional customization point: `b.is_delta(point)` is true where the BSDF at `point` has
+/// delta lobes only (a mirror, smooth glass), so eval and pdf are 0 for every pair there: a
+/// connection from it (next-event estimation) is zero and path tracing casts no shadow ray for
+/// it. BSDFs without it are always connected.
+template <class B, class S>
+concept HasIsDelta = requires(const B& b, const SurfacePoint<spectrum_scalar_t<S>>& p) {
+  { b.is_delta(p) } -> std::same_as<bool>;
+};
+
 }  // namespace segpath

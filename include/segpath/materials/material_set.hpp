@@ -68,7 +68,8 @@ class MaterialSet {
     return dispatch(*m, [&](const auto& b) noexcept -> Scalar { return b.pdf(q); });
   }
 
-  /// Whether the point's material has only delta lobes (a path cannot connect through it).
+  /// Whether the point's material has only delta lobes (a path cannot connect through it; the
+  /// optional Bsdf customization point `is_delta`, concepts/bsdf.hpp).
   [[nodiscard]] bool is_delta(const SurfacePoint<Scalar>& p) const noexcept {
     const Material<S>* m = find(p.material_id);
     return m != nullptr &&
