@@ -338,6 +338,8 @@ class VcmMethod {
     if (options_.alpha) v.alpha = *options_.alpha;
     if (options_.beta) v.light_path_factor = *options_.beta;
     v.seed = options_.seed;
+    // Russian roulette from the first scattering, SmallVCM's schedule (docs/figures.md).
+    v.roulette_from = 1;
     return v;
   }
   MethodOptions options_;

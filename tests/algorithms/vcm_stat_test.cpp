@@ -224,26 +224,30 @@ TEMPLATE_TEST_CASE("BDPT and VCM are exact in the periodic-slab furnace", "[algo
   static_assert(LightSampledScene<Scn>);
   const std::size_t max_length = 5;
   const double expected = scene.radiance_up_to(testing::SlabSide::a, unsigned(max_length - 1));
-  const double alpha = testing::sidak_alpha(0.01, 2 * 5);
+  const double alpha = testing::sidak_alpha(0.01, 2 * 5 * 2);
   struct Case {
     VcmMode mode;
     double radius;
     double light_path_factor;
     bool progressive;
     std::uint64_t iterations;
+    std::size_t roulette_from = 0;
   };
   // Light subpaths started on infinite planes give photons of unbounded weight (the
   // second moment of a photon estimate diverges there); the MIS of BDPT and VCM keeps them
   // tame, PPM and BPM are tested in the sphere furnace below.
+  // Russian roulette on both subpaths (from their first scattering) keeps the estimate exact.
   for (const Case c : {Case{VcmMode::bdpt, 0.2, 6, false, 1500}, Case{VcmMode::vcm, 0.25, 6, false, 1500},
-                       Case{VcmMode::vcm, 0.4, 6, true, 1500}}) {
+                       Case{VcmMode::vcm, 0.4, 6, true, 1500}, Case{VcmMode::bdpt, 0.2, 6, false, 1500, 1},
+                       Case{VcmMode::vcm, 0.25, 6, false, 1500, 1}}) {
     VcmOptions o = options(c.mode, max_length, c.radius, c.light_path_factor, 5);
     o.alpha = 0.6;
+    o.roulette_from = c.roulette_from;
     const VertexConnectionMerging<Scn> method(o);
     DropCounters drops;
     const auto stats = run<Scn, T>(method, scene, c.iterations, drops, c.progressive ? 0.0 : c.radius);
     const auto& mean = stats.back();
-    INFO(to_string(c.mode) << (c.progressive ? " (progressive)" : "") << ": " << mean.mean() << " +- "
+    INFO(to_string(c.mode) << (c.progressive ? " (progressive)" : "") << ", roulette from " << c.roulette_from << ": " << mean.mean() << " +- "
                            << mean.standard_error() << " vs " << expected);
     CHECK(drops.total() == 0);
     CHECK_FALSE(testing::student_t_test(mean, expected).rejects(alpha));
@@ -266,17 +270,21 @@ TEMPLATE_TEST_CASE("PPM, BPM and VCM are exact in the sphere furnace", "[algorit
   const std::size_t max_length = 5;
   double expected = 0;
   for (unsigned b = 0; b < max_length; ++b) expected += scene.bounce_radiance_at(Vec3<T>(0, 0, 1), b);
-  const double alpha = testing::sidak_alpha(0.01, 2 * 2 * 3);
-  for (const VcmMode mode : {VcmMode::ppm, VcmMode::bpm, VcmMode::vcm}) {
-    const VertexConnectionMerging<Scn> method(options(mode, max_length, 0.1, 40, 8));
-    DropCounters drops;
-    const auto stats = run<Scn, T>(method, scene, 800, drops, 0.1);
-    const auto& mean = stats.back();
-    INFO(to_string(mode) << ": " << mean.mean() << " +- " << mean.standard_error() << " vs " << expected);
-    CHECK(drops.total() == 0);
-    CHECK_FALSE(testing::student_t_test(mean, expected).rejects(alpha));
-    CHECK(testing::student_t_test(mean, 1.03 * expected).rejects(alpha));  // the test has power
-  }
+  const double alpha = testing::sidak_alpha(0.01, 2 * 2 * 3 * 2);
+  for (const std::size_t roulette_from : {std::size_t(0), std::size_t(1)})
+    for (const VcmMode mode : {VcmMode::ppm, VcmMode::bpm, VcmMode::vcm}) {
+      VcmOptions o = options(mode, max_length, 0.1, 40, 8);
+      o.roulette_from = roulette_from;
+      const VertexConnectionMerging<Scn> method(o);
+      DropCounters drops;
+      const auto stats = run<Scn, T>(method, scene, 800, drops, 0.1);
+      const auto& mean = stats.back();
+      INFO(to_string(mode) << ", roulette from " << roulette_from << ": " << mean.mean() << " +- " << mean.standard_error()
+                           << " vs " << expected);
+      CHECK(drops.total() == 0);
+      CHECK_FALSE(testing::student_t_test(mean, expected).rejects(alpha));
+      CHECK(testing::student_t_test(mean, 1.03 * expected).rejects(alpha));  // the test has power
+    }
 }
 
 TEST_CASE("PPM and BPM are consistent under the point light: bias of the disk average, about r^2", "[algorithms][stat]") {

@@ -10,6 +10,7 @@
 #include "segpath/core/framebuffer.hpp"
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/rng.hpp"
+#include "segpath/core/roulette.hpp"
 #include "segpath/kernels/dirac.hpp"
 #include "segpath/kernels/hash_grid.hpp"
 #include "segpath/kernels/progressive_radius.hpp"
@@ -58,6 +59,10 @@ struct VcmOptions {
   double initial_radius = 0.01;  ///< disk-kernel radius of iteration 0 (> 0)
   double alpha = 0.75;           ///< radius schedule r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1), in (0, 1)
   double light_path_factor = 1;  ///< light subpaths per iteration = round(factor * pixels), >= 1
+  /// Russian roulette (core/roulette.hpp) after every scattering of a subpath from this many
+  /// segments on (0: never). The MIS weights leave it out: they stay a partition of unity over
+  /// the techniques, so the estimate is unchanged in expectation.
+  std::size_t roulette_from = 0;
   std::uint64_t seed = 0;
 };
 
@@ -264,8 +269,8 @@ class VertexConnectionMerging {
       v.specular = next->delta;
       if (!scatter_light(scene, it, state, v, -next->direction, next->delta)) break;
       if (!arrive(it, state, v.point, next->segment.x, next->direction)) break;
-      const S throughput = v.throughput * next->weight;
-      if (is_black(throughput)) break;
+      S throughput = v.throughput * next->weight;
+      if (!survives(v.length, *next, throughput, rng) || is_black(throughput)) break;
       out[count] = Vertex{next->segment.x, next->direction, throughput, state, v.length + 1, false};
       ++count;
       segment = next->segment;
@@ -592,12 +597,24 @@ class VertexConnectionMerging {
       if (!next) break;
       if (!scatter_camera(scene, it, state, v, next->direction, next->delta)) break;
       throughput = throughput * next->weight;
-      if (is_black(throughput)) break;
+      if (!survives(length, *next, throughput, rng) || is_black(throughput)) break;
       specular = specular && next->delta;
       segment = next->segment;
       direction = next->direction;
     }
     return total;
+  }
+
+  /// Russian roulette after the scattering that drew `next` onto a subpath of `length`
+  /// segments: false ends the subpath; a survivor's throughput is divided by the probability.
+  template <UniformSource<T> R>
+  [[nodiscard]] bool survives(std::uint32_t length, const SegmentSample<S>& next, S& throughput, R& rng) const noexcept {
+    if (options_.roulette_from == 0 || length < options_.roulette_from) return true;
+    const T q = continuation_probability(next.weight, next.delta);
+    if (!(q < T(1))) return true;
+    if (!(rng.template uniform<T>() < q)) return false;
+    throughput = throughput / q;
+    return true;
   }
 
   /// The Dirac bridge between camera end c and light end l: f G f with visibility, weighted.
