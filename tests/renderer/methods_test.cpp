@@ -249,10 +249,10 @@ TEST_CASE("BDPT agrees with PT per tile on boxes 1 and 3", "[renderer][stat]") {
   }
 }
 
-// VCM at a quarter of the default radius (4 pixel footprints = 0.21 at 64 x 64, so r = 0.052
-// shrinking by alpha = 0.75). Measured at the default radius, VCM's kernel bias on box 1 is at
-// most -4.4 % +- 1.1 % (floor tile 12; -1.7 % on the walls); kernel bias scales like r^2,
-// so at r/4 it is about -0.3 %, below the 0.8-2 % resolution of a tile: a straight Welch test.
+// VCM at one pixel footprint (r = 0.052 at 64 x 64, shrinking by alpha = 0.75). Measured at 4
+// footprints (0.21), VCM's kernel bias on box 1 is at most -4.4 % +- 1.1 % (floor tile 12; -1.7 %
+// on the walls); kernel bias scales like r^2, so at a quarter of that radius it is about -0.3 %,
+// below the 0.8-2 % resolution of a tile: a straight Welch test.
 TEST_CASE("VCM at a small radius agrees with PT per tile on box 1", "[renderer][stat]") {
   const Tiles tiles = square_tiles();
   const double alpha = segpath::testing::sidak_alpha(family_alpha, tiles.count);
