@@ -58,13 +58,17 @@ struct Technique {
   double density;     ///< n_i p_i of the whole path
 };
 
-/// Every technique's full-path density for the path v[0] (pinhole) .. v[k] (light end).
+/// Every technique's full-path density for the path v[0] (pinhole) .. v[k] (light end). With
+/// `roulette` every scattering's density also carries the roulette's continuation probability,
+/// the albedo on the sphere's Lambertian surface (core/roulette.hpp: f cos / p = rho).
 struct BruteForce {
-  BruteForce(const Sphere& s, std::uint32_t p, double n, double r) : scene(s), pixel(p), light_paths(n), radius(r) {}
+  BruteForce(const Sphere& s, std::uint32_t p, double n, double r, bool rr)
+      : scene(s), pixel(p), light_paths(n), radius(r), roulette(rr) {}
   const Sphere& scene;
   std::uint32_t pixel;
   double light_paths;
   double radius;
+  bool roulette;
   SensorStartSampler<Sphere> sensor_start;
   NextSegmentSampler<Sphere, DiracKernel<double>> next{DiracKernel<double>{}};
   LightStartSampler<Sphere> light_start;
@@ -77,14 +81,17 @@ struct BruteForce {
     const Segment<double> s{v[i - 1], v[i]};
     if (i == 1) return sensor_start.pdf(scene, {pixel}, s);
     const Segment<double> prev{v[i - 2], v[i - 1]};
-    return next.pdf(scene, {prev}, s);
+    return next.pdf(scene, {prev}, s) * continuation(v[i - 1]);
   }
   /// Light-side density of segment i (v[i-1], v[i]).
   double light(const std::vector<SurfacePoint<double>>& v, std::size_t i) const {
     const Segment<double> s{v[i - 1], v[i]};
     if (i + 1 == v.size()) return light_start.pdf(scene, {}, s);
     const Segment<double> after{v[i], v[i + 1]};
-    return light_next.pdf(scene, {after}, s);
+    return light_next.pdf(scene, {after}, s) * continuation(v[i]);
+  }
+  double continuation(const SurfacePoint<double>& scattering) const {
+    return roulette ? scene.albedo_at(scattering.position) : 1.0;
   }
 
   std::vector<Technique> techniques(const std::vector<SurfacePoint<double>>& v, VcmMode mode) const {
@@ -126,12 +133,14 @@ TEST_CASE("VCM, BDPT and BPM weights equal the brute-force heuristic over full-p
   const std::uint32_t light_paths = 7;
   Pcg32 rng(2024, 5);
   std::size_t checked = 0;
+  for (const bool roulette : {false, true})
   for (const VcmMode mode : {VcmMode::bdpt, VcmMode::vcm, VcmMode::bpm}) {
     for (const MisHeuristic h : {MisHeuristic::balance, MisHeuristic::power}) {
       VcmOptions o;
       o.mode = mode;
       o.heuristic = h;
       o.max_length = 12;
+      o.roulette_from = roulette ? 1 : 0;
       const VertexConnectionMerging<Sphere> vcm(o);
       const auto it = vcm.iteration_constants(scene, radius, light_paths);
       REQUIRE(it.camera_connectable == (mode != VcmMode::bpm));
@@ -145,7 +154,7 @@ TEST_CASE("VCM, BDPT and BPM weights equal the brute-force heuristic over full-p
         REQUIRE(hit);
         std::vector<SurfacePoint<double>> v{ray->origin, hit->point};
         while (v.size() <= k) v.push_back(scene.sample_area({rng.uniform2<double>()})->point);
-        const BruteForce bf(scene, pixel, double(light_paths), radius);
+        const BruteForce bf(scene, pixel, double(light_paths), radius, roulette);
         const auto techniques = bf.techniques(v, mode);
         double denominator = 0;
         for (const auto& t : techniques) denominator += mis_term(t.density, h);
@@ -192,7 +201,7 @@ TEST_CASE("VCM, BDPT and BPM weights equal the brute-force heuristic over full-p
             }
           }
           const double expected = mis_term(t.density, h) / denominator;
-          INFO(to_string(mode) << (h == MisHeuristic::power ? " power" : " balance") << " k=" << k << " technique "
+          INFO(to_string(mode) << (h == MisHeuristic::power ? " power" : " balance") << (roulette ? ", roulette" : "") << " k=" << k << " technique "
                                << int(t.kind) << "/" << t.index << ": " << w << " vs " << expected);
           CHECK(std::abs(w - expected) <= 1e-6 * expected + 1e-12);
           weight_sum += w;
@@ -202,7 +211,7 @@ TEST_CASE("VCM, BDPT and BPM weights equal the brute-force heuristic over full-p
       }
     }
   }
-  CHECK(checked > 1000);
+  CHECK(checked > 2000);
 }
 
 TEST_CASE("VCM rejects bad options with clear messages", "[algorithms][vcm]") {

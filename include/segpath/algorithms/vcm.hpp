@@ -60,8 +60,10 @@ struct VcmOptions {
   double alpha = 0.75;           ///< radius schedule r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1), in (0, 1)
   double light_path_factor = 1;  ///< light subpaths per iteration = round(factor * pixels), >= 1
   /// Russian roulette (core/roulette.hpp) after every scattering of a subpath from this many
-  /// segments on (0: never). The MIS weights leave it out: they stay a partition of unity over
-  /// the techniques, so the estimate is unchanged in expectation.
+  /// segments on (0: never). From 1 (SmallVCM's schedule: every scattering) the MIS densities
+  /// carry its continuation probabilities, as SmallVCM's do; from a later length the weights
+  /// leave it out. Either way they are a partition of unity over the techniques, so the
+  /// estimate is unchanged in expectation.
   std::size_t roulette_from = 0;
   std::uint64_t seed = 0;
 };
@@ -106,6 +108,9 @@ struct VcmIteration {
   bool connect = false;
   bool merge = false;
   bool ppm = false;
+  /// Every scattering is subject to Russian roulette (VcmOptions::roulette_from == 1): the MIS
+  /// densities of scatterings carry its continuation probability.
+  bool roulette = false;
   /// Light subpaths can be bridged to the sensor (t = 1): off for sensors that are Dirac in
   /// direction (radiance probes), whose rays no bridge can hit.
   bool camera_connectable = false;
@@ -169,6 +174,7 @@ class VertexConnectionMerging {
     it.connect = options_.mode == VcmMode::bdpt || options_.mode == VcmMode::vcm;
     it.merge = options_.mode != VcmMode::bdpt;
     it.ppm = options_.mode == VcmMode::ppm;
+    it.roulette = options_.roulette_from == 1;
     const T eta = pi<T> * radius * radius * it.light_paths;
     it.merge_normalization = T(1) / eta;
     it.vm_factor = it.merge ? mis(it, eta) : T(0);
@@ -336,16 +342,25 @@ class VertexConnectionMerging {
   /// s = 1: the next-event bridge `e` (LightBridgeSampler's sample from camera end `v`).
   [[nodiscard]] T nee_weight(const Scn& scene, const Iteration& it, const Vertex& v,
                              const SegmentSample<S>& e) const noexcept {
+    return nee_weight(scene, it, v, e, roulette_f(scene, it, {v.point, v.to_previous, e.direction, Transport::radiance}));
+  }
+  /// nee_weight with f_r at v for the bridge's direction (used only with roulette in the MIS).
+  [[nodiscard]] T nee_weight(const Scn& scene, const Iteration& it, const Vertex& v, const SegmentSample<S>& e,
+                             const S& f) const noexcept {
     const Vec3<T>& d = e.direction;
     const BsdfQuery<T> forward{v.point, v.to_previous, d, Transport::radiance};
     const BsdfQuery<T> reverse{v.point, v.to_previous, d, Transport::importance};
-    const T w_light = e.delta ? T(0) : mis(it, solid_angle_to_area(scene.bsdf().pdf(forward), v.point, e.segment.y) / e.pdf);
+    const T forward_pdf = scene.bsdf().pdf(forward);
+    const T reverse_pdf = scene.bsdf().pdf(reverse);
+    const T forward_density = forward_pdf * continuation(it, f, endpoint_cosine(v.point, d), forward_pdf);
+    const T reverse_density = reverse_pdf * continuation(it, f, endpoint_cosine(v.point, v.to_previous), reverse_pdf);
+    const T w_light = e.delta ? T(0) : mis(it, solid_angle_to_area(forward_density, v.point, e.segment.y) / e.pdf);
     const SurfacePoint<T>& y = e.segment.y;
     const bool finite = y.kind != PointKind::direction;
     const EmissionPdf<T> ep = scene.emitter().pdf_emission(EmissionPdfQuery<T>{y, finite ? -d : v.point.position});
     const T to_x = finite ? solid_angle_to_area(T(1), y, v.point) : endpoint_cosine(v.point, d);
     const T w_camera = mis(it, ep.position * ep.direction * to_x / e.pdf) *
-                       (it.vm_factor + v.mis.d_vcm + v.mis.d_vc * mis(it, scene.bsdf().pdf(reverse)));
+                       (it.vm_factor + v.mis.d_vcm + v.mis.d_vc * mis(it, reverse_density));
     return reciprocal(w_light + T(1) + w_camera);
   }
 
@@ -354,13 +369,22 @@ class VertexConnectionMerging {
     const Vec3<T> delta = l.point.position - c.point.position;
     const T d2 = glm::dot(delta, delta);
     if (!(d2 > T(0)) || !std::isfinite(d2)) return T(0);
-    return connection_weight(scene, it, c, l, delta / std::sqrt(d2), d2);
+    const Vec3<T> d = delta / std::sqrt(d2);
+    return connection_weight(scene, it, c, l, d, d2, roulette_f(scene, it, {c.point, c.to_previous, d, Transport::radiance}),
+                             roulette_f(scene, it, {l.point, -d, l.to_previous, Transport::radiance}));
   }
 
   /// t = 1: the sensor bridge `b` (SensorBridgeSampler's sample towards light end `l`).
   [[nodiscard]] T camera_connection_weight(const Scn& scene, const Iteration& it, const Vertex& l,
                                            const SegmentSample<S>& b) const noexcept {
-    const T reverse = scene.bsdf().pdf(BsdfQuery<T>{l.point, -b.direction, l.to_previous, Transport::radiance});
+    return camera_connection_weight(scene, it, l, b,
+                                    roulette_f(scene, it, {l.point, -b.direction, l.to_previous, Transport::radiance}));
+  }
+  /// camera_connection_weight with f_r at l for the bridge's direction.
+  [[nodiscard]] T camera_connection_weight(const Scn& scene, const Iteration& it, const Vertex& l, const SegmentSample<S>& b,
+                                           const S& f) const noexcept {
+    const T reverse_pdf = scene.bsdf().pdf(BsdfQuery<T>{l.point, -b.direction, l.to_previous, Transport::radiance});
+    const T reverse = reverse_pdf * continuation(it, f, endpoint_cosine(l.point, l.to_previous), reverse_pdf);
     const T camera_pdf = solid_angle_to_area(
         scene.sensor().pdf(SensorQuery<T>{b.segment.x, b.direction}).direction, b.segment.x, l.point);
     const T w_light = mis(it, camera_pdf / it.light_paths) * (it.vm_factor + l.mis.d_vcm + l.mis.d_vc * mis(it, reverse));
@@ -370,8 +394,15 @@ class VertexConnectionMerging {
   /// The merge of camera end `c` with light end `l` (disk kernel); 1 in ppm mode.
   [[nodiscard]] T merge_weight(const Scn& scene, const Iteration& it, const Vertex& c, const Vertex& l) const noexcept {
     if (it.ppm) return T(1);
-    const T forward = scene.bsdf().pdf(BsdfQuery<T>{c.point, c.to_previous, l.to_previous, Transport::radiance});
-    const T reverse = scene.bsdf().pdf(BsdfQuery<T>{c.point, c.to_previous, l.to_previous, Transport::importance});
+    return merge_weight(scene, it, c, l, roulette_f(scene, it, {c.point, c.to_previous, l.to_previous, Transport::radiance}));
+  }
+  /// merge_weight with f_r at c between the two subpaths' directions.
+  [[nodiscard]] T merge_weight(const Scn& scene, const Iteration& it, const Vertex& c, const Vertex& l, const S& f) const noexcept {
+    if (it.ppm) return T(1);
+    const T forward_pdf = scene.bsdf().pdf(BsdfQuery<T>{c.point, c.to_previous, l.to_previous, Transport::radiance});
+    const T reverse_pdf = scene.bsdf().pdf(BsdfQuery<T>{c.point, c.to_previous, l.to_previous, Transport::importance});
+    const T forward = forward_pdf * continuation(it, f, endpoint_cosine(c.point, l.to_previous), forward_pdf);
+    const T reverse = reverse_pdf * continuation(it, f, endpoint_cosine(c.point, c.to_previous), reverse_pdf);
     const T w_light = l.mis.d_vcm * it.vc_factor + l.mis.d_vm * mis(it, forward);
     const T w_camera = c.mis.d_vcm * it.vc_factor + c.mis.d_vm * mis(it, reverse);
     return reciprocal(w_light + T(1) + w_camera);
@@ -408,6 +439,21 @@ class VertexConnectionMerging {
     return it.heuristic == MisHeuristic::balance ? x : x * x;
   }
   [[nodiscard]] static T reciprocal(T x) noexcept { return x > T(0) && std::isfinite(x) ? T(1) / x : T(0); }
+
+  /// The roulette's continuation probability as a factor of a scattering's solid-angle density
+  /// in the MIS (it.roulette): q = min(1, max(f_r) |cos| / pdf) of the scattering that samples
+  /// the direction (cosine `cosine`, density `pdf`), the rule the subpaths' roulette applies
+  /// (core/roulette.hpp). The reverse direction's q takes f_r of radiance transport, exact for
+  /// BSDFs that are symmetric there (no refraction, no shading normals); a weight computed with
+  /// another q is still unbiased.
+  [[nodiscard]] static T continuation(const Iteration& it, const S& f, T cosine, T pdf) noexcept {
+    if (!it.roulette || !(pdf > T(0))) return T(1);
+    return continuation_probability(S(f * (cosine / pdf)), false);
+  }
+  /// f_r for `continuation`, evaluated only when the MIS carries the roulette.
+  [[nodiscard]] static S roulette_f(const Scn& scene, const Iteration& it, const BsdfQuery<T>& q) noexcept {
+    return it.roulette ? scene.bsdf().eval(q) : S(T(0));
+  }
 
   /// Whether the sensor's rays for a pixel depend on the position in the pixel (a pinhole)
   /// or not (a probe, a Dirac in direction that no bridge can hit).
@@ -495,9 +541,12 @@ class VertexConnectionMerging {
                                            const Vec3<T>& out, bool delta) noexcept {
     const T cos_out = endpoint_cosine(v.point, out);
     if (delta) return scatter(it, s, T(0), T(0), cos_out, true);
-    const T forward = scene.bsdf().pdf(BsdfQuery<T>{v.point, v.to_previous, out, Transport::radiance});
+    const BsdfQuery<T> query{v.point, v.to_previous, out, Transport::radiance};
+    const T forward = scene.bsdf().pdf(query);
     const T reverse = scene.bsdf().pdf(BsdfQuery<T>{v.point, v.to_previous, out, Transport::importance});
-    return scatter(it, s, forward, reverse, cos_out, false);
+    const S f = roulette_f(scene, it, query);
+    return scatter(it, s, forward * continuation(it, f, cos_out, forward),
+                   reverse * continuation(it, f, endpoint_cosine(v.point, v.to_previous), reverse), cos_out, false);
   }
 
   /// Light subpath leaving end v along `out` (towards the sensor).
@@ -505,18 +554,27 @@ class VertexConnectionMerging {
                                           const Vec3<T>& out, bool delta) noexcept {
     const T cos_out = endpoint_cosine(v.point, out);
     if (delta) return scatter(it, s, T(0), T(0), cos_out, true);
+    const BsdfQuery<T> query{v.point, out, v.to_previous, Transport::radiance};
     const T forward = scene.bsdf().pdf(BsdfQuery<T>{v.point, out, v.to_previous, Transport::importance});
-    const T reverse = scene.bsdf().pdf(BsdfQuery<T>{v.point, out, v.to_previous, Transport::radiance});
-    return scatter(it, s, forward, reverse, cos_out, false);
+    const T reverse = scene.bsdf().pdf(query);
+    const S f = roulette_f(scene, it, query);
+    return scatter(it, s, forward * continuation(it, f, cos_out, forward),
+                   reverse * continuation(it, f, endpoint_cosine(v.point, v.to_previous), reverse), cos_out, false);
   }
 
+  /// connection_weight with the unit direction d from c to l, their squared distance and f_r at
+  /// both ends (f_c, f_l: used only with roulette in the MIS).
   [[nodiscard]] T connection_weight(const Scn& scene, const Iteration& it, const Vertex& c, const Vertex& l,
-                                    const Vec3<T>& d, T d2) const noexcept {
+                                    const Vec3<T>& d, T d2, const S& f_c, const S& f_l) const noexcept {
     const auto& bsdf = scene.bsdf();
-    const T c_forward = bsdf.pdf(BsdfQuery<T>{c.point, c.to_previous, d, Transport::radiance});
-    const T c_reverse = bsdf.pdf(BsdfQuery<T>{c.point, c.to_previous, d, Transport::importance});
-    const T l_forward = bsdf.pdf(BsdfQuery<T>{l.point, -d, l.to_previous, Transport::importance});
-    const T l_reverse = bsdf.pdf(BsdfQuery<T>{l.point, -d, l.to_previous, Transport::radiance});
+    T c_forward = bsdf.pdf(BsdfQuery<T>{c.point, c.to_previous, d, Transport::radiance});
+    T c_reverse = bsdf.pdf(BsdfQuery<T>{c.point, c.to_previous, d, Transport::importance});
+    T l_forward = bsdf.pdf(BsdfQuery<T>{l.point, -d, l.to_previous, Transport::importance});
+    T l_reverse = bsdf.pdf(BsdfQuery<T>{l.point, -d, l.to_previous, Transport::radiance});
+    c_forward *= continuation(it, f_c, endpoint_cosine(c.point, d), c_forward);
+    c_reverse *= continuation(it, f_c, endpoint_cosine(c.point, c.to_previous), c_reverse);
+    l_forward *= continuation(it, f_l, endpoint_cosine(l.point, d), l_forward);
+    l_reverse *= continuation(it, f_l, endpoint_cosine(l.point, l.to_previous), l_reverse);
     const T c_forward_area = c_forward * endpoint_cosine(l.point, d) / d2;
     const T l_forward_area = l_forward * endpoint_cosine(c.point, d) / d2;
     const T w_light = mis(it, c_forward_area) * (it.vm_factor + l.mis.d_vcm + l.mis.d_vc * mis(it, l_reverse));
@@ -540,7 +598,7 @@ class VertexConnectionMerging {
     if (is_black(f)) return;
     const auto response = scene.sensor().importance(SensorQuery<T>{b->segment.x, b->direction});
     if (!response) return;
-    const T w = camera_connection_weight(scene, it, l, *b);
+    const T w = camera_connection_weight(scene, it, l, *b, f);
     if (w == T(0)) return;
     sink.add(response->pixel, l.throughput * f * b->weight * (w / it.light_paths));
   }
@@ -583,7 +641,7 @@ class VertexConnectionMerging {
             const Segment<T> at{v.point, v.point};
             if (const auto e = bridge_.sample(scene, {at}, rng); e && e->pdf > T(0)) {
               const S f = scene.bsdf().eval(BsdfQuery<T>{v.point, v.to_previous, e->direction, Transport::radiance});
-              if (!is_black(f)) accumulate(total, throughput * f * e->weight * nee_weight(scene, it, v, *e), drops);
+              if (!is_black(f)) accumulate(total, throughput * f * e->weight * nee_weight(scene, it, v, *e, f), drops);
             }
           }
           for (std::uint32_t j = 0; j < partner_count; ++j) {
@@ -631,7 +689,7 @@ class VertexConnectionMerging {
     const T g = endpoint_cosine(c.point, d) * endpoint_cosine(l.point, d) / d2;
     if (!(g > T(0))) return zero;
     if (!scene.visible(VisibilityQuery<T>{c.point, l.point})) return zero;
-    return c.throughput * f_c * (l.throughput * f_l) * (g * connection_weight(scene, it, c, l, d, d2));
+    return c.throughput * f_c * (l.throughput * f_l) * (g * connection_weight(scene, it, c, l, d, d2, f_c, f_l));
   }
 
   /// Merges camera end c with the stored light ends in its disk (N19), weighted.
@@ -645,7 +703,7 @@ class VertexConnectionMerging {
       if (!(glm::dot(l.point.normal, c.point.normal) >= merge_min_normal_cosine)) return;
       const S f = scene.bsdf().eval(BsdfQuery<T>{c.point, c.to_previous, l.to_previous, Transport::radiance});
       if (is_black(f)) return;
-      sum += f * l.throughput * merge_weight(scene, it, c, l);
+      sum += f * l.throughput * merge_weight(scene, it, c, l, f);
     });
     if (!is_black(sum)) accumulate(total, c.throughput * sum * it.merge_normalization, drops);
   }
