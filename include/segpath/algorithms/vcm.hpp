@@ -208,34 +208,48 @@ class VertexConnectionMerging {
       throw std::invalid_argument("segpath::VertexConnectionMerging: too many light-subpath ends per iteration");
     const Iteration it = iteration_constants(scene, radius, n);
     Scratch& sc = scratch_;
-    sc.light_vertices.resize(std::size_t(n) * stride);
+    sc.light_first.assign(n, 0);
     sc.light_counts.assign(n, 0);
-    sc.stride = stride;
+    sc.light_vertices.clear();
 
     if ((it.connect || it.merge) && stride > 0) {
+      // Each chunk traces into one path's buffer and appends the ends it got to its own list;
+      // the lists are then laid end to end, so memory follows the ends traced (roulette makes
+      // most paths far shorter than max_length) and stays in path order.
       const std::size_t chunks = std::min<std::size_t>(chunk_count, n);
+      sc.chunk_vertices.resize(chunks);
+      sc.path_buffers.resize(chunks);
       parallel_for(chunks, [&](std::size_t c) {
         auto sink = sc.splats.sink(c);
+        std::vector<Vertex>& ends = sc.chunk_vertices[c];
+        std::vector<Vertex>& buffer = sc.path_buffers[c];
+        ends.clear();
+        buffer.resize(stride);
         const std::size_t begin = c * n / chunks, end = (c + 1) * n / chunks;
         for (std::size_t i = begin; i < end; ++i) {
           Pcg32 rng = Pcg32::for_sample(options_.seed ^ light_salt, i, iteration);
-          Vertex* ends = sc.light_vertices.data() + i * stride;
-          const std::uint32_t count = trace_light_subpath(scene, it, rng, std::span<Vertex>(ends, stride));
+          const std::uint32_t count = trace_light_subpath(scene, it, rng, std::span<Vertex>(buffer.data(), stride));
+          sc.light_first[i] = static_cast<std::uint32_t>(ends.size());
           sc.light_counts[i] = count;
+          ends.insert(ends.end(), buffer.begin(), buffer.begin() + count);
           if (!it.camera_connectable) continue;
           for (std::uint32_t j = 0; j < count; ++j)
-            if (!ends[j].specular) connect_to_camera(scene, it, ends[j], rng, sink);
+            if (!buffer[j].specular) connect_to_camera(scene, it, buffer[j], rng, sink);
         }
+      });
+      std::vector<std::size_t> base(chunks + 1, 0);
+      for (std::size_t c = 0; c < chunks; ++c) base[c + 1] = base[c] + sc.chunk_vertices[c].size();
+      sc.light_vertices.resize(base[chunks]);
+      parallel_for(chunks, [&](std::size_t c) {
+        std::copy(sc.chunk_vertices[c].begin(), sc.chunk_vertices[c].end(), sc.light_vertices.begin() + std::ptrdiff_t(base[c]));
+        for (std::size_t i = c * n / chunks; i < (c + 1) * n / chunks; ++i) sc.light_first[i] += static_cast<std::uint32_t>(base[c]);
       });
     }
     if (it.merge) {
       sc.photons.clear();
-      for (std::uint32_t i = 0; i < n; ++i)
-        for (std::uint32_t j = 0; j < sc.light_counts[i]; ++j) {
-          const std::size_t id = std::size_t(i) * stride + j;
-          if (!sc.light_vertices[id].specular && sc.light_vertices[id].point.kind == PointKind::surface)
-            sc.photons.push_back(static_cast<std::uint32_t>(id));
-        }
+      for (std::size_t id = 0; id < sc.light_vertices.size(); ++id)
+        if (!sc.light_vertices[id].specular && sc.light_vertices[id].point.kind == PointKind::surface)
+          sc.photons.push_back(static_cast<std::uint32_t>(id));
       sc.grid.build(sc.photons, radius, [&](std::uint32_t id) { return sc.light_vertices[id].point.position; });
     }
     const std::size_t chunks = std::min<std::size_t>(chunk_count, pixels);
@@ -412,10 +426,11 @@ class VertexConnectionMerging {
   static constexpr std::uint64_t light_salt = 0x6c69676874ULL;
 
   struct Scratch {
-    std::vector<Vertex> light_vertices;
-    std::vector<std::uint32_t> light_counts;
+    std::vector<Vertex> light_vertices;                  ///< every light subpath's ends, path after path
+    std::vector<std::uint32_t> light_first, light_counts;  ///< per light subpath: its first end there, its count
+    std::vector<std::vector<Vertex>> chunk_vertices;      ///< the ends each chunk traced
+    std::vector<std::vector<Vertex>> path_buffers;        ///< per chunk: one subpath's ends while tracing
     std::vector<std::uint32_t> photons;
-    std::size_t stride = 0;
     HashGrid<T> grid;
     SplatRecorder<S> splats{chunk_count};
     std::vector<DropCounters> camera_drops;
@@ -612,8 +627,8 @@ class VertexConnectionMerging {
     if (!first) return total;
     const Scratch& sc = scratch_;
     const std::size_t max = options_.max_length;
-    const Vertex* partner = sc.light_vertices.data() + std::size_t(pixel % light_paths) * sc.stride;
-    const std::uint32_t partner_count = sc.stride > 0 ? sc.light_counts[pixel % light_paths] : 0;
+    const Vertex* partner = sc.light_vertices.data() + sc.light_first[pixel % light_paths];
+    const std::uint32_t partner_count = sc.light_counts[pixel % light_paths];
     MisState state =
         camera_start(it, scene.sensor().pdf(SensorQuery<T>{first->segment.x, first->direction}).direction);
     Segment<T> segment = first->segment;
