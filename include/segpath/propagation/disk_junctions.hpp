@@ -4,6 +4,7 @@
 // stored as neighbour lists (both directions, compressed rows) instead of a partition.
 #pragma once
 
+#include "segpath/core/index_range.hpp"
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/segment.hpp"
 #include "segpath/kernels/hash_grid.hpp"
@@ -138,7 +139,7 @@ class DiskJunctions {
   [[nodiscard]] T kernel(std::size_t) const noexcept { return kernel_; }
   /// Ending slot s is segment s.
   [[nodiscard]] auto ending_segments() const noexcept {
-    return std::views::iota(std::uint32_t(0), std::uint32_t(segment_count()));
+    return IndexRange<std::uint32_t>(0, std::uint32_t(segment_count()));
   }
   /// The starting_near lists, concatenated.
   [[nodiscard]] std::span<const std::uint32_t> starting_segments() const noexcept { return starting_; }

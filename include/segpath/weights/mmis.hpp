@@ -11,6 +11,7 @@
 #include <type_traits>
 #include <utility>
 
+#include "segpath/core/index_range.hpp"
 #include "segpath/weights/smis.hpp"
 
 namespace segpath {
@@ -165,7 +166,7 @@ class UnconditionalFamily {
   constexpr UnconditionalFamily(std::size_t count, Pdf pdf) : count_(count), pdf_(std::move(pdf)) {}
 
   [[nodiscard]] constexpr auto techniques() const noexcept {
-    return std::views::iota(std::size_t{0}, count_);
+    return IndexRange<std::size_t>(0, count_);
   }
   [[nodiscard]] constexpr std::size_t count() const noexcept { return count_; }
 
