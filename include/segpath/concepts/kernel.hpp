@@ -82,4 +82,10 @@ concept Kernel = detail::HasKernelScalar<K> && detail::HasIsDirac<K> && detail::
                  detail::HasKernelSample<K> && detail::HasKernelPdf<K> &&
                  detail::HasSupportRadius<K>;
 
+/// A Kernel of scalar T: what every template taking a scene and a kernel requires of the
+/// kernel, so that a DiracKernel<double> given to a float scene is rejected at the template's
+/// own constraints (KernelOf<K, float>: std::same_as<double, float>), not inside it.
+template <class K, class T>
+concept KernelOf = Kernel<K> && std::same_as<typename K::Scalar, T>;
+
 }  // namespace segpath

@@ -52,7 +52,7 @@ requires(sizeof...(Fs) >= 1) && (TechniqueFamily<Fs, std::ranges::range_value_t<
 /// Its marginal over l is a kernel-smoothed emission density, so light samples are reused as in
 /// photon mapping, but weighted by MMIS instead of being accepted as a biased merge. M's pdf must
 /// be the exact density of its samples on the scene's surface (DiskKernel: planar emitters).
-template <LightSampledScene Scn, Kernel K, Kernel M, std::size_t MaxLength>
+template <LightSampledScene Scn, KernelOf<typename Scn::Scalar> K, KernelOf<typename Scn::Scalar> M, std::size_t MaxLength>
 requires std::same_as<typename K::Scalar, typename Scn::Scalar> &&
     std::same_as<typename M::Scalar, typename Scn::Scalar> &&
     (MaxLength >= 2) class LightMergePathTechnique {
@@ -131,7 +131,7 @@ requires std::same_as<typename K::Scalar, typename Scn::Scalar> &&
 /// Every path of either family is divided by n_s p_seq(s-bar) + sum_j p(s-bar | l_j), over all
 /// drawn l_j: unbiased wherever the sequential family can draw the path (n_s >= 1). Technique
 /// samples live in fixed storage of MaxLightSamples: nothing is allocated per estimate.
-template <LightSampledScene Scn, Kernel K, Kernel M, std::size_t MaxLength,
+template <LightSampledScene Scn, KernelOf<typename Scn::Scalar> K, KernelOf<typename Scn::Scalar> M, std::size_t MaxLength,
           std::size_t MaxLightSamples = 16>
 requires std::same_as<typename K::Scalar, typename Scn::Scalar> &&
     (MaxLength >= 2) class MarginalPathEstimator {

@@ -116,7 +116,7 @@ concept PathTechnique = detail::HasPathType<Tech> && detail::PathOfScene<Tech, S
 /// Sequential path technique: s_1 from the sensor-start sampler (N29) for q.pixel, s_2..s_k
 /// from the next-segment sampler (N31):  p(s-bar) = p_W(s_1) prod_{i=1}^{k-1} p(s_{i+1} | s_i).
 /// With the Dirac kernel this is path tracing's BSDF sampling.
-template <Scene Scn, Kernel K, std::size_t MaxLength>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K, std::size_t MaxLength>
 requires std::same_as<typename K::Scalar, typename Scn::Scalar> &&
     (MaxLength >= 1) class SequentialPathTechnique {
  public:
@@ -156,7 +156,7 @@ requires std::same_as<typename K::Scalar, typename Scn::Scalar> &&
 /// s_2..s_{k-1} from the next-segment sampler (N31), s_k from the light bridge (N34):
 ///   p(s-bar) = p_W(s_1) prod_{i=1}^{k-2} p(s_{i+1} | s_i) p_K(x_k | s_{k-1}) p_L(y_k | x_k).
 /// Paths of at least 2 segments.
-template <LightSampledScene Scn, Kernel K, std::size_t MaxLength>
+template <LightSampledScene Scn, KernelOf<typename Scn::Scalar> K, std::size_t MaxLength>
 requires std::same_as<typename K::Scalar, typename Scn::Scalar> &&
     (MaxLength >= 2) class LightBridgePathTechnique {
  public:
@@ -212,7 +212,7 @@ struct FirstOf {
 /// every density inlines, and nothing is allocated per path.
 /// Limitation: a path marked `delta` (drawn through a specular lobe or a Dirac light end) cannot
 /// be weighted against techniques whose pdf ignores that Dirac; it is dropped as zero_density.
-template <Scene Scn, Kernel K, PathTechnique<Scn>... Techs>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K, PathTechnique<Scn>... Techs>
 requires(sizeof...(Techs) >= 1) && std::same_as<typename K::Scalar, typename Scn::Scalar> &&
     (std::same_as<typename Techs::Path, typename detail::FirstOf<Techs...>::type::Path> &&
      ...) class MultiTechniqueEstimator {
@@ -325,7 +325,7 @@ requires(sizeof...(Techs) >= 1) && std::same_as<typename K::Scalar, typename Scn
 };
 
 /// Builds a MultiTechniqueEstimator, deducing the technique types.
-template <Scene Scn, Kernel K, PathTechnique<Scn>... Techs>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K, PathTechnique<Scn>... Techs>
 [[nodiscard]] MultiTechniqueEstimator<Scn, K, Techs...> make_multi_technique_estimator(
     K kernel, std::size_t length, const std::array<std::size_t, sizeof...(Techs)>& counts,
     MisHeuristic heuristic, Techs... techniques) {

@@ -25,7 +25,7 @@ struct PathLengths {
   std::size_t max = 10;
 };
 
-template <Scene Scn, Kernel K>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K>
 class SequentialEstimator {
  public:
   using T = typename Scn::Scalar;

@@ -31,7 +31,7 @@ template <Spectrum S>
 }
 
 /// K(s, s') f_r(s, s') G(s') of (N17), without visibility of s'.
-template <Scene Scn, Kernel K>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K>
 [[nodiscard]] inline typename Scn::Spectrum link_factor(const Scn& scene, const K& kernel,
                                                         const Segment<typename Scn::Scalar>& s,
                                                         const Segment<typename Scn::Scalar>& next) noexcept {
@@ -80,7 +80,7 @@ struct PixelValue {
 /// g_rho(s-bar) of (N17) for a whole segment path, visibility included:
 ///   W(s_1) prod_i G(s_i) prod_i K(s_i, s_{i+1}) f_r(s_i, s_{i+1}) L_e(s_k).
 /// Returns nullopt for an empty path or one the sensor does not see.
-template <Scene Scn, Kernel K, class Path>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K, class Path>
 [[nodiscard]] std::optional<PixelValue<typename Scn::Spectrum>> path_contribution(
     const Scn& scene, const K& kernel, const Path& path) noexcept {
   using T = typename Scn::Scalar;

@@ -28,7 +28,7 @@ namespace segpath {
 /// pdf(scene, t, s) is (N31) with the kernel's density for ANY segment s, exactly as
 /// NextSegmentSampler's: MMIS evaluates it for segments that start anywhere in the support.
 /// is_dirac follows the kernel: pdf() is a proper density whenever the kernel's is.
-template <Scene Scn, Kernel K>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K>
   requires std::same_as<typename K::Scalar, typename Scn::Scalar>
 class ApproximateNextSegmentSampler {
  public:
@@ -107,7 +107,7 @@ class ApproximateNextSegmentSampler {
 /// kernels at zero distance, so the weight equals the Dirac-kernel weight; biased but
 /// consistent exactly as ApproximateNextSegmentSampler. pdf(scene, t, s) is
 /// LightNextSegmentSampler's for any segment s.
-template <Scene Scn, Kernel K>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K>
   requires std::same_as<typename K::Scalar, typename Scn::Scalar>
 class ApproximateLightNextSegmentSampler {
  public:

@@ -25,7 +25,7 @@ namespace segpath {
 /// estimator's connection term: each needs a direction of a subpath the bridge does not own.
 /// weight = (K / p_K)(K / p_K) G. Dirac kernels: x_i = y_{i-1}, y_i = x_{i+1}, p = 1 (the
 /// coefficient of both deltas), factor G(s_i): the BDPT connection edge.
-template <Scene Scn, Kernel K>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K>
   requires std::same_as<typename K::Scalar, typename Scn::Scalar>
 class KernelBridgeSampler {
  public:
@@ -107,7 +107,7 @@ class KernelBridgeSampler {
 /// y_{i-1} is the estimator's connection term. p_L is in the measure of y's kind (area,
 /// discrete for point lights, solid angle for distant lights); G drops the matching factors.
 /// weight = (K / p_K) G L_e / p_L. `delta` is set for Dirac light ends (EmitterTowardsSample::delta).
-template <LightSampledScene Scn, Kernel K>
+template <LightSampledScene Scn, KernelOf<typename Scn::Scalar> K>
   requires std::same_as<typename K::Scalar, typename Scn::Scalar>
 class LightBridgeSampler {
  public:
@@ -183,7 +183,7 @@ class LightBridgeSampler {
 /// pixel); the pixel s_1 lands in is sensor().importance(x_1, s^_1) (sensor_factor in
 /// integrand/contribution.hpp). The (N17) factors it carries: W(s_1) G(s_1) K(s_1, s_2); the BSDF
 /// f_r(s_1, s_2) at y_1 is the estimator's connection term. weight = W G (K / p_K) / p_pos.
-template <Scene Scn, Kernel K>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K>
   requires std::same_as<typename K::Scalar, typename Scn::Scalar>
 class SensorBridgeSampler {
  public:

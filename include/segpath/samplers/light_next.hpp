@@ -69,7 +69,7 @@ template <class Scn, class K>
 /// x_{i+1} itself; with the disk kernel y_i is the kernel's sample in the tangent plane of
 /// x_{i+1}, which carries x_{i+1}'s normal, shading frame and material, so f_r(s_i, s_{i+1})
 /// is x_{i+1}'s BSDF moved to y_i.
-template <Scene Scn, Kernel K>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K>
   requires std::same_as<typename K::Scalar, typename Scn::Scalar>
 class LightNextSegmentSampler {
  public:

@@ -14,7 +14,7 @@
 
 namespace segpath {
 
-template <Scene Scn, Kernel K>
+template <Scene Scn, KernelOf<typename Scn::Scalar> K>
   requires std::same_as<typename K::Scalar, typename Scn::Scalar>
 class NextSegmentSampler {
  public:
