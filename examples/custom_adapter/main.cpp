@@ -1,23 +1,33 @@
 // segpath-demo: a renderer author's own scene adapter, rendered with segpath.
 //
 // The user's types here — a room of rectangles and spheres with a brute-force intersector,
-// a pinhole camera and a material table — model segpath's concepts (static_assert below);
-// the library supplies the Lambertian BRDF, the Dirac kernel and the sequential estimator
-// (segment path tracing). Usage:
+// a pinhole camera, a material table and a rectangular lamp — model segpath's concepts
+// (static_assert below); the library supplies the Lambertian BRDF and the methods. The room is
+// rendered four ways and their image means printed side by side: segment path tracing with the
+// sequential estimator (by hand), then PT, VCM and BDPF through the render protocol
+// (segpath::ProgressiveRender), spp iterations each. Usage:
 //   segpath-demo [--out FILE.png] [--spp N] [--width W] [--height H] [--threads N] [--seed S]
+#include <segpath/algorithms/path_tracer.hpp>
+#include <segpath/algorithms/segment_filtering.hpp>
+#include <segpath/algorithms/vcm.hpp>
 #include <segpath/estimators/sequential.hpp>
 #include <segpath/kernels/dirac.hpp>
 #include <segpath/materials/lambertian.hpp>
+#include <segpath/render/progressive.hpp>
 
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #include <stb/stb_image_write.h>
 
+#include <malloc.h>
+
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -103,6 +113,7 @@ class Room {
   using Scalar = T;
   using Spectrum = Color;
   static constexpr T ray_epsilon = T(1e-4);
+  static constexpr std::uint32_t lamp_index = 5;  ///< the lamp's rectangle
 
   Room(std::uint32_t width, std::uint32_t height)
       : camera_({0, T(-3.4), 0}, {0, 1, 0}, {0, 0, 1}, T(38), width, height) {
@@ -114,7 +125,7 @@ class Room {
     wall({-1, 1, -1}, {2, 0, 0}, {0, 0, 2}, white);   // back wall, normal -y
     wall({-1, -1, -1}, {0, 2, 0}, {0, 0, 2}, red);    // left wall, normal +x
     wall({1, -1, -1}, {0, 0, 2}, {0, 2, 0}, green);   // right wall, normal -x
-    wall({T(-0.5), T(-0.5), T(0.98)}, {0, T(1), 0}, {T(1), 0, 0}, light);  // ceiling lamp, facing down
+    wall({T(-0.5), T(-0.5), T(0.98)}, {0, T(1), 0}, {T(1), 0, 0}, light);  // ceiling lamp (lamp_index), facing down
     balls_.push_back({{T(-0.4), T(0.3), T(-0.6)}, T(0.4), white});
     balls_.push_back({{T(0.45), T(-0.1), T(-0.7)}, T(0.3), white});
     materials_[white] = {Color(T(0.75))};
@@ -192,18 +203,54 @@ class Room {
     [[nodiscard]] Color eval(const segpath::BsdfQuery<T>& q) const noexcept { return of(q.point).eval(q); }
     [[nodiscard]] std::optional<segpath::BsdfSample<Color>> sample(const segpath::BsdfSampleQuery<T>& q) const noexcept { return of(q.point).sample(q); }
     [[nodiscard]] T pdf(const segpath::BsdfQuery<T>& q) const noexcept { return of(q.point).pdf(q); }
+    // Optional hook: every material here is Lambertian, so the filtering methods may factorise
+    // their clusters (docs/guide.md, "Optional hooks").
+    [[nodiscard]] std::optional<Color> lambertian_albedo(const segpath::SurfacePoint<T>& p) const noexcept {
+      return of(p).albedo;
+    }
     [[nodiscard]] const segpath::Lambertian<Color>& of(const segpath::SurfacePoint<T>& p) const noexcept {
       return room->materials_[p.material_id < material_count ? p.material_id : white];
     }
   };
+  // The lamp: one rectangle emitting a Lambertian radiance downwards. The four sampling
+  // functions make it a SampledEmitter, which PT's next-event estimation, VCM's light subpaths
+  // and BDPF's light paths need (the sequential estimator needs radiance() only).
   struct Lamp {
+    const Rectangle* rect;
+    static constexpr Color emitted{T(5), T(4.6), T(4)};
+    [[nodiscard]] T area() const noexcept { return glm::length(glm::cross(rect->edge_u, rect->edge_v)); }
+    [[nodiscard]] segpath::SurfacePoint<T> point(const Vec2<T>& u) const noexcept {
+      return segpath::SurfacePoint<T>::on_surface(rect->corner + rect->edge_u * u.x + rect->edge_v * u.y, rect->normal,
+                                                  lamp_index, light);
+    }
     [[nodiscard]] Color radiance(const segpath::EmissionQuery<T>& q) const noexcept {
       const bool lit = q.point.material_id == light && glm::dot(q.to_sensor, q.point.normal) > T(0);
-      return lit ? Color(T(5), T(4.6), T(4)) : Color(T(0));
+      return lit ? emitted : Color(T(0));
+    }
+    // A point uniform on the lamp, a cosine-weighted direction below it.
+    [[nodiscard]] std::optional<segpath::EmissionSample<Color>> sample_emission(const segpath::EmissionSampleQuery<T>& q) const noexcept {
+      const Vec3<T> local = segpath::square_to_cosine_hemisphere(q.u_direction);
+      const Vec3<T> d = segpath::Frame<T>::from_normal(rect->normal).to_world(local);
+      return segpath::EmissionSample<Color>{point(q.u_position), d, emitted, T(1) / area(),
+                                            segpath::square_to_cosine_hemisphere_pdf(local), false};
+    }
+    [[nodiscard]] segpath::EmissionPdf<T> pdf_emission(const segpath::EmissionPdfQuery<T>& q) const noexcept {
+      if (q.point.material_id != light) return {};
+      const T cosine = glm::dot(q.direction, rect->normal);
+      return {T(1) / area(), cosine > T(0) ? cosine / segpath::pi<T> : T(0)};
+    }
+    // A point uniform on the lamp for a receiver (next-event estimation).
+    [[nodiscard]] std::optional<segpath::EmitterTowardsSample<Color>> sample_towards(const segpath::EmitterTowardsQuery<T>& q) const noexcept {
+      const segpath::SurfacePoint<T> y = point(q.u);
+      const bool lit = glm::dot(q.receiver.position - y.position, rect->normal) > T(0);
+      return segpath::EmitterTowardsSample<Color>{y, lit ? emitted : Color(T(0)), T(1) / area(), false};
+    }
+    [[nodiscard]] T pdf_towards(const segpath::EmitterPdfTowardsQuery<T>& q) const noexcept {
+      return q.point.material_id == light ? T(1) / area() : T(0);
     }
   };
   [[nodiscard]] Materials bsdf() const noexcept { return Materials{this}; }
-  [[nodiscard]] Lamp emitter() const noexcept { return {}; }
+  [[nodiscard]] Lamp emitter() const noexcept { return {&rectangles_[lamp_index]}; }
   [[nodiscard]] const Pinhole& sensor() const noexcept { return camera_; }
 
  private:
@@ -218,10 +265,11 @@ class Room {
 static_assert(segpath::Manifold<Room>, "the user's geometry is a segpath Manifold");
 static_assert(segpath::Sensor<Pinhole, T>, "the user's camera is a segpath Sensor");
 static_assert(segpath::Scene<Room>, "and the whole adapter a segpath Scene");
+static_assert(segpath::LightSampledScene<Room>, "with a sampled emitter: PT, VCM and BDPF run on it");
 
 struct Options {
   std::string out = "segpath-demo.png";
-  std::uint32_t spp = 64, width = 256, height = 256, threads = 0;
+  std::uint32_t spp = 16, width = 256, height = 256, threads = 0;
   std::uint64_t seed = 1;
 };
 
@@ -263,54 +311,136 @@ struct PixelSink {
   void drop(segpath::DropReason) noexcept { ++dropped; }
 };
 
-}  // namespace
+/// The user's own ParallelFor (segpath::ParallelFor): body(i) for i in [0, n) on `threads`
+/// std::threads taking indices from a shared counter.
+struct ThreadFor {
+  unsigned threads = 1;
+  template <class Body>
+  void operator()(std::size_t n, Body&& body) const {
+    std::atomic<std::size_t> next{0};
+    auto work = [&] {
+      for (std::size_t i; (i = next.fetch_add(1)) < n;) body(i);
+    };
+    std::vector<std::thread> pool;
+    for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+  }
+};
 
-int main(int argc, char** argv) {
-  const Options options = parse(argc, argv);
-  const Room room(options.width, options.height);
-  const segpath::SequentialEstimator<Room, segpath::DiracKernel<T>> estimator(segpath::DiracKernel<T>{}, {1, 8});
-  examples::Image image(int(options.width), int(options.height));
-  const unsigned threads = options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
-  std::vector<std::uint64_t> dropped(threads, 0);
-
-  const auto start = std::chrono::steady_clock::now();
-  auto render_rows = [&](unsigned thread) {
-    // Rows are interleaved over threads; every (pixel, sample) has its own random stream, so
-    // the image does not depend on the thread count.
-    for (std::uint32_t y = thread; y < options.height; y += threads)
-      for (std::uint32_t x = 0; x < options.width; ++x) {
-        const std::uint32_t pixel = y * options.width + x;
-        PixelSink sink;
-        for (std::uint32_t s = 0; s < options.spp; ++s) {
-          segpath::Pcg32 rng = segpath::Pcg32::for_sample(options.seed, pixel, s);
-          estimator.estimate(room, segpath::EstimateQuery{pixel, s}, rng, sink);
-        }
-        image.at(int(x), int(y)) = sink.sum / T(options.spp);
-        dropped[thread] += sink.dropped;
-      }
-  };
-  std::vector<std::thread> pool;
-  for (unsigned t = 0; t < threads; ++t) pool.emplace_back(render_rows, t);
-  for (auto& t : pool) t.join();
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-
+/// Writes an image as PNG (tone-mapped to sRGB) and PFM (linear) next to each other.
+bool write_images(const examples::Image& image, const std::string& png) {
   std::vector<unsigned char> ldr(image.pixels.size() * 3);
   for (std::size_t i = 0; i < image.pixels.size(); ++i)
     for (int c = 0; c < 3; ++c)
       ldr[3 * i + std::size_t(c)] = static_cast<unsigned char>(examples::to_srgb(image.pixels[i][c]) * 255.0f + 0.5f);
-  const std::filesystem::path out(options.out);
+  const std::filesystem::path out(png);
   if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());
-  if (!stbi_write_png(options.out.c_str(), int(options.width), int(options.height), 3, ldr.data(), int(options.width) * 3)) {
-    std::fprintf(stderr, "segpath-demo: cannot write %s\n", options.out.c_str());
-    return 1;
-  }
+  if (!stbi_write_png(png.c_str(), image.width, image.height, 3, ldr.data(), image.width * 3)) return false;
   std::filesystem::path pfm = out;
   examples::write_pfm(image, pfm.replace_extension(".pfm").string());
-  std::uint64_t total_dropped = 0;
-  for (auto d : dropped) total_dropped += d;
-  const double samples = double(options.spp) * options.width * options.height;
-  std::printf("segpath-demo: segment path tracing, %ux%u, %u spp, %u threads, %.2f s, %.2f M samples/s, mean %.4f, %llu dropped -> %s\n",
-              options.width, options.height, options.spp, threads, seconds, samples / seconds * 1e-6, image.mean(),
-              static_cast<unsigned long long>(total_dropped), options.out.c_str());
+  return true;
+}
+
+/// `png` with `-suffix` before its extension.
+std::string suffixed(const std::string& png, const std::string& suffix) {
+  std::filesystem::path p(png);
+  const std::string ext = p.extension().string();
+  return p.replace_extension().string() + "-" + suffix + ext;
+}
+
+struct Result {
+  std::string name;
+  double seconds = 0, mean = 0;
+  std::uint64_t dropped = 0;
+};
+
+/// `spp` iterations of a library method through the render protocol (segpath::ProgressiveRender:
+/// it numbers the iterations, accumulates them in double and picks the kernel size from the
+/// pixel footprint), written to `png`.
+template <class Method>
+Result render_progressive(const std::string& name, const Room& room, Method method, const Options& o, unsigned threads,
+                          const std::string& png) {
+  const auto start = std::chrono::steady_clock::now();
+  segpath::ProgressiveRender render(room, std::move(method), o.width, o.height);
+  for (std::uint32_t i = 0; i < o.spp; ++i) render.iterate(ThreadFor{threads});
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  examples::Image image(int(o.width), int(o.height));
+  for (std::uint32_t p = 0; p < render.width() * render.height(); ++p) image.pixels[p] = Color(render.pixel(p));
+  if (!write_images(image, png)) throw std::runtime_error("cannot write " + png);
+  return {name, seconds, image.mean(), render.drops().total()};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // BDPF allocates its pool (hundreds of MB at full HD) every iteration: keep freed blocks in
+  // the heap, or glibc returns them to the kernel, which zeroes every page again on the next
+  // iteration (docs/guide.md, "Performance").
+  mallopt(M_MMAP_THRESHOLD, 1 << 30);
+  mallopt(M_TRIM_THRESHOLD, -1);
+  const Options options = parse(argc, argv);
+  const Room room(options.width, options.height);
+  const unsigned threads = options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  std::vector<Result> results;
+
+  // 1. Segment path tracing with the sequential estimator: spp samples per pixel, by hand.
+  {
+    const segpath::SequentialEstimator<Room, segpath::DiracKernel<T>> estimator(segpath::DiracKernel<T>{}, {1, 8});
+    examples::Image image(int(options.width), int(options.height));
+    std::vector<std::uint64_t> dropped(threads, 0);
+    const auto start = std::chrono::steady_clock::now();
+    auto render_rows = [&](unsigned thread) {
+      // Rows are interleaved over threads; every (pixel, sample) has its own random stream, so
+      // the image does not depend on the thread count.
+      for (std::uint32_t y = thread; y < options.height; y += threads)
+        for (std::uint32_t x = 0; x < options.width; ++x) {
+          const std::uint32_t pixel = y * options.width + x;
+          PixelSink sink;
+          for (std::uint32_t s = 0; s < options.spp; ++s) {
+            segpath::Pcg32 rng = segpath::Pcg32::for_sample(options.seed, pixel, s);
+            estimator.estimate(room, segpath::EstimateQuery{pixel, s}, rng, sink);
+          }
+          image.at(int(x), int(y)) = sink.sum / T(options.spp);
+          dropped[thread] += sink.dropped;
+        }
+    };
+    std::vector<std::thread> pool;
+    for (unsigned t = 0; t < threads; ++t) pool.emplace_back(render_rows, t);
+    for (auto& t : pool) t.join();
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (!write_images(image, options.out)) {
+      std::fprintf(stderr, "segpath-demo: cannot write %s\n", options.out.c_str());
+      return 1;
+    }
+    std::uint64_t total_dropped = 0;
+    for (auto d : dropped) total_dropped += d;
+    results.push_back({"sequential", seconds, image.mean(), total_dropped});
+  }
+
+  // 2. The library's methods on the same adapter, through one protocol.
+  try {
+    results.push_back(render_progressive("pt", room, segpath::PathTracer<Room>({8, segpath::MisHeuristic::power, 3, options.seed}),
+                                         options, threads, suffixed(options.out, "pt")));
+    segpath::VcmOptions vcm;  // the defaults: merge radius from the pixel footprint
+    vcm.max_length = 8;
+    vcm.seed = options.seed;
+    results.push_back(render_progressive("vcm", room, segpath::VertexConnectionMerging<Room>(vcm), options, threads,
+                                         suffixed(options.out, "vcm")));
+    segpath::FilteringOptions<T> bdpf;  // BDPF, the paper's method, with its defaults
+    bdpf.max_length = 8;
+    bdpf.seed = options.seed;
+    results.push_back(render_progressive("bdpf", room, segpath::SegmentFiltering<Room>(bdpf), options, threads,
+                                         suffixed(options.out, "bdpf")));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "segpath-demo: %s\n", e.what());
+    return 1;
+  }
+
+  std::printf("segpath-demo: %ux%u, %u spp, %u threads -> %s (and -pt, -vcm, -bdpf)\n", options.width, options.height,
+              options.spp, threads, options.out.c_str());
+  for (const Result& r : results)
+    std::printf("  %-10s  mean %.4f  %7.2f s  %llu dropped\n", r.name.c_str(), r.mean, r.seconds,
+                static_cast<unsigned long long>(r.dropped));
   return 0;
 }

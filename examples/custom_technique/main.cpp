@@ -28,7 +28,7 @@ std::pair<double, double> image_mean(const Method& method, const Scene& scene, s
   segpath::DropCounters drops;
   for (std::uint64_t i = 0; i < iterations; ++i) {
     segpath::Framebuffer<double> image(scene.sensor().width(), scene.sensor().height());
-    method.render_iteration_at_cell(scene, i, cell, image, drops);
+    method.render_iteration_at(scene, i, cell, image, drops);
     double mean = 0;
     for (const double v : image.pixels()) mean += v;
     mean /= double(image.pixel_count());

@@ -1,6 +1,6 @@
-// The renderer's methods as iteration-based integrators: each renders one iteration (PT: one
-// path per pixel; LT: one light path per pixel's worth of splats) into an accumulation
-// image, so the image is the accumulated sum divided by the iteration count whatever the method.
+// The renderer's methods: each is the library's method, built from the command line's options,
+// run through the library's render protocol (segpath::ProgressiveRender) on a scene that counts
+// its rays; the image is the accumulated sum divided by the iteration count whatever the method.
 #pragma once
 
 #include "render_scene.hpp"
@@ -12,14 +12,17 @@
 #include <segpath/core/drop.hpp>
 #include <segpath/core/framebuffer.hpp>
 #include <segpath/core/parallel.hpp>
-#include <segpath/core/rng.hpp>
+#include <segpath/render/progressive.hpp>
 
-#include <tbb/enumerable_thread_specific.h>
-
+#include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <mutex>
 #include <cstdio>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <stdexcept>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -64,76 +67,7 @@ struct MethodOptions {
   std::optional<std::size_t> transfer_cache_mib;  ///< mvf, phf, bdpf: FilteringOptions::transfer_cache_bytes in MiB
 };
 
-/// The emitter of a RenderScene by reference: PathTracer copies scene.emitter() once per
-/// path, so a copyable view keeps the emitter's tables from being copied.
-class EmitterView {
- public:
-  explicit EmitterView(const Emitter& e) noexcept : e_(&e) {}
-  [[nodiscard]] Color radiance(const segpath::EmissionQuery<T>& q) const noexcept { return e_->radiance(q); }
-  [[nodiscard]] std::optional<segpath::EmissionSample<Color>> sample_emission(
-      const segpath::EmissionSampleQuery<T>& q) const noexcept {
-    return e_->sample_emission(q);
-  }
-  [[nodiscard]] segpath::EmissionPdf<T> pdf_emission(const segpath::EmissionPdfQuery<T>& q) const noexcept {
-    return e_->pdf_emission(q);
-  }
-  [[nodiscard]] std::optional<segpath::EmitterTowardsSample<Color>> sample_towards(
-      const segpath::EmitterTowardsQuery<T>& q) const noexcept {
-    return e_->sample_towards(q);
-  }
-  [[nodiscard]] T pdf_towards(const segpath::EmitterPdfTowardsQuery<T>& q) const noexcept {
-    return e_->pdf_towards(q);
-  }
-
- private:
-  const Emitter* e_;
-};
-
-/// A RenderScene that counts its intersect and visible calls into a counter owned by one
-/// task (no atomics; the counts are summed after the parallel loop).
-class CountingScene {
- public:
-  using Scalar = T;
-  using Spectrum = Color;
-
-  CountingScene(const RenderScene& scene, std::uint64_t& rays) noexcept : scene_(&scene), rays_(&rays) {}
-
-  [[nodiscard]] T area() const noexcept { return scene_->area(); }
-  [[nodiscard]] std::optional<segpath::AreaSample<T>> sample_area(const segpath::AreaSampleQuery<T>& q) const noexcept {
-    return scene_->sample_area(q);
-  }
-  [[nodiscard]] std::optional<segpath::Hit<T>> intersect(const segpath::IntersectQuery<T>& q) const noexcept {
-    ++*rays_;
-    return scene_->intersect(q);
-  }
-  [[nodiscard]] bool visible(const segpath::VisibilityQuery<T>& q) const noexcept {
-    ++*rays_;
-    return scene_->visible(q);
-  }
-  [[nodiscard]] const segpath::MaterialSet<Color>& bsdf() const noexcept { return scene_->bsdf(); }
-  [[nodiscard]] EmitterView emitter() const noexcept { return EmitterView(scene_->emitter()); }
-  [[nodiscard]] const segpath::PinholeCamera<T>& sensor() const noexcept { return scene_->sensor(); }
-
- private:
-  const RenderScene* scene_;
-  std::uint64_t* rays_;
-};
-
-static_assert(segpath::LightSampledScene<CountingScene>);
-
 namespace detail {
-
-/// The sink of one PT sample: at most one add, or a drop.
-struct PixelSink {
-  Color value{T(0)};
-  bool added = false;
-  segpath::DropCounters* drops;
-  void add(std::uint32_t, const Color& v) noexcept {
-    value += v;
-    added = true;
-  }
-  void drop(segpath::DropReason r) noexcept { drops->add(r); }
-};
 
 [[nodiscard]] inline segpath::Rgb<double> to_double(const Color& c) noexcept {
   return {double(c.r), double(c.g), double(c.b)};
@@ -141,95 +75,52 @@ struct PixelSink {
 
 }  // namespace detail
 
-/// Path tracing with next-event estimation (segpath::PathTracer): one path per pixel per
-/// iteration, pixel p of iteration i drawing from Pcg32::for_sample(seed, p, i). Each row is
-/// one task, so each pixel's sum is accumulated by one task in iteration order.
-class PtMethod {
+namespace detail {
+
+/// The process's ray count, kept per thread without synchronisation on the hot path: each
+/// thread increments a counter of its own (registered at its first ray, retired at its exit);
+/// total() sums them. (oneTBB's enumerable_thread_specific cost PT 3.5 % in its lookup.)
+class RayCounters {
  public:
-  static constexpr std::string_view name = "pt";
-  static constexpr std::string_view description = "path tracing with next-event estimation (MIS)";
-
-  // Russian roulette with SmallVCM's rule (core/roulette.hpp) from the third segment on (SmallVCM
-  // starts at the first; the third is better at equal time here: docs/figures.md).
-  explicit PtMethod(const MethodOptions& o)
-      : seed_(o.seed), tracer_(segpath::PathTracerOptions{o.max_length, segpath::MisHeuristic::power, 3}) {}
-
-  template <segpath::ParallelFor P>
-  void render_iteration(const RenderScene& scene, std::uint64_t iteration, Accumulator& accumulate, Stats& stats,
-                        const P& parallel) {
-    const std::uint32_t width = accumulate.width(), height = accumulate.height();
-    rows_.assign(height, Stats{});
-    parallel(std::size_t(height), [&](std::size_t row) {
-      Stats& s = rows_[row];
-      const CountingScene counting(scene, s.rays);
-      for (std::uint32_t x = 0; x < width; ++x) {
-        const std::uint32_t pixel = std::uint32_t(row) * width + x;
-        segpath::Pcg32 rng = segpath::Pcg32::for_sample(seed_, pixel, iteration);
-        detail::PixelSink sink{Color(T(0)), false, &s.dropped};
-        tracer_.estimate(counting, segpath::EstimateQuery{pixel, iteration}, rng, sink);
-        ++s.paths;
-        if (sink.added) {
-          if (segpath::is_finite(sink.value)) accumulate.add(pixel, detail::to_double(sink.value));
-          else s.dropped.add(segpath::DropReason::non_finite);
-        }
-      }
-    });
-    for (const Stats& s : rows_) stats += s;
+  static void count() noexcept {
+    thread_local Slot slot;
+    slot.rays.store(slot.rays.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+  }
+  /// Every ray counted so far, by every thread.
+  static std::uint64_t total() {
+    RayCounters& r = instance();
+    const std::lock_guard lock(r.mutex_);
+    std::uint64_t sum = r.retired_;
+    for (const Slot* slot : r.slots_) sum += slot->rays.load(std::memory_order_relaxed);
+    return sum;
   }
 
  private:
-  std::uint64_t seed_;
-  segpath::PathTracer<CountingScene> tracer_;
-  std::vector<Stats> rows_;
-};
-
-/// Light tracing (segpath::LightTracer): N = #pixels light paths per iteration, so one
-/// iteration's image is (sum of their splats) / N (N16). The paths are split into
-/// `chunk_count` chunks, a number independent of the thread count; each chunk records its
-/// splats (segpath::SplatRecorder) and the chunks are applied in order, so the image for a
-/// seed is bit-identical for any thread count. Path k of iteration i draws from
-/// Pcg32::for_sample(seed ^ stream_salt, k, i), streams disjoint from PT's for the same seed.
-class LtMethod {
- public:
-  static constexpr std::string_view name = "lt";
-  static constexpr std::string_view description = "light tracing (splats to the camera)";
-  static constexpr std::size_t chunk_count = 64;
-  static constexpr std::uint64_t stream_salt = 0x4c54'0000'0000'0000ULL;
-
-  explicit LtMethod(const MethodOptions& o)
-      : seed_(o.seed ^ stream_salt), tracer_(segpath::LightTracerOptions{o.max_length}), recorder_(chunk_count) {}
-
-  template <segpath::ParallelFor P>
-  void render_iteration(const RenderScene& scene, std::uint64_t iteration, Accumulator& accumulate, Stats& stats,
-                        const P& parallel) {
-    const std::uint64_t n = accumulate.pixel_count();
-    if (!image_ || image_->pixel_count() != n) image_.emplace(accumulate.width(), accumulate.height());
-    image_->clear();
-    chunks_.assign(chunk_count, Stats{});
-    parallel(chunk_count, [&](std::size_t chunk) {
-      Stats& s = chunks_[chunk];
-      const CountingScene counting(scene, s.rays);
-      auto sink = recorder_.sink(chunk);
-      const std::uint64_t begin = n * chunk / chunk_count, end = n * (chunk + 1) / chunk_count;
-      for (std::uint64_t k = begin; k < end; ++k) {
-        segpath::Pcg32 rng = segpath::Pcg32::for_sample(seed_, k, iteration);
-        tracer_.estimate(counting, segpath::EstimateQuery{0, iteration * n + k}, rng, sink);
-      }
-      s.paths += end - begin;
-    });
-    for (const Stats& s : chunks_) stats += s;
-    recorder_.apply(*image_, stats.dropped);
-    const double inv_n = 1.0 / double(n);
-    for (std::uint32_t p = 0; p < image_->pixel_count(); ++p) accumulate.add(p, detail::to_double((*image_)[p]) * inv_n);
+  struct Slot {
+    std::atomic<std::uint64_t> rays{0};
+    Slot() {
+      RayCounters& r = instance();
+      const std::lock_guard lock(r.mutex_);
+      r.slots_.push_back(this);
+    }
+    ~Slot() {
+      RayCounters& r = instance();
+      const std::lock_guard lock(r.mutex_);
+      r.retired_ += rays.load(std::memory_order_relaxed);
+      r.slots_.erase(std::find(r.slots_.begin(), r.slots_.end(), this));
+    }
+  };
+  /// Never destroyed: worker threads may retire their slots after static destruction.
+  static RayCounters& instance() {
+    static RayCounters* const counters = new RayCounters;
+    return *counters;
   }
-
- private:
-  std::uint64_t seed_;
-  segpath::LightTracer<CountingScene> tracer_;
-  segpath::SplatRecorder<Color> recorder_;
-  std::optional<segpath::Framebuffer<Color>> image_;
-  std::vector<Stats> chunks_;
+  std::mutex mutex_;
+  std::vector<const Slot*> slots_;
+  std::uint64_t retired_ = 0;
 };
+
+}  // namespace detail
 
 /// A RenderScene counting its intersect and visible calls per thread (for the methods that
 /// parallelise internally); the total is read after the iteration.
@@ -238,75 +129,130 @@ class ThreadCountingScene {
   using Scalar = T;
   using Spectrum = Color;
 
-  explicit ThreadCountingScene(const RenderScene& scene) noexcept : scene_(&scene) {}
+  explicit ThreadCountingScene(const RenderScene& scene) : scene_(&scene), counted_(detail::RayCounters::total()) {}
 
   [[nodiscard]] T area() const noexcept { return scene_->area(); }
   [[nodiscard]] std::optional<segpath::AreaSample<T>> sample_area(const segpath::AreaSampleQuery<T>& q) const noexcept {
     return scene_->sample_area(q);
   }
   [[nodiscard]] std::optional<segpath::Hit<T>> intersect(const segpath::IntersectQuery<T>& q) const noexcept {
-    ++rays_.local();
+    detail::RayCounters::count();
     return scene_->intersect(q);
   }
   [[nodiscard]] bool visible(const segpath::VisibilityQuery<T>& q) const noexcept {
-    ++rays_.local();
+    detail::RayCounters::count();
     return scene_->visible(q);
   }
   [[nodiscard]] const segpath::MaterialSet<Color>& bsdf() const noexcept { return scene_->bsdf(); }
   [[nodiscard]] const Emitter& emitter() const noexcept { return scene_->emitter(); }
   [[nodiscard]] const segpath::PinholeCamera<T>& sensor() const noexcept { return scene_->sensor(); }
+  [[nodiscard]] const RenderScene& scene() const noexcept { return *scene_; }
 
-  /// The rays counted since the last call, and reset.
+  /// The rays counted since construction or the last call (by every thread of the process:
+  /// one render at a time).
   std::uint64_t take_rays() const {
-    std::uint64_t total = 0;
-    for (auto& r : rays_) total += std::exchange(r, 0);
-    return total;
+    const std::uint64_t now = detail::RayCounters::total();
+    return now - std::exchange(counted_, now);
   }
 
  private:
   const RenderScene* scene_;
-  mutable tbb::enumerable_thread_specific<std::uint64_t> rays_{0};
+  mutable std::uint64_t counted_;
 };
 
 static_assert(segpath::LightSampledScene<ThreadCountingScene>);
 
-/// The average pixel footprint on the first surface hit (distance times the side of a pixel's
-/// solid angle), from the pixel centres of every 7th pixel: the unit of the paper's kernel
-/// size ("initial support ~ 4x the average pixel footprint").
-[[nodiscard]] inline double pixel_footprint(const RenderScene& scene) {
-  const auto& camera = scene.sensor();
-  double sum = 0;
-  std::uint64_t count = 0;
-  for (std::uint32_t p = 0; p < camera.pixel_count(); p += 7) {
-    const auto ray = camera.sample_ray(segpath::SensorSampleQuery<T>{p, segpath::Vec2<T>(T(0.5)), segpath::Vec2<T>(T(0.5))});
-    if (!ray || !(ray->pdf_direction > T(0))) continue;
-    const auto hit = scene.intersect(segpath::IntersectQuery<T>{segpath::Ray<T>{ray->origin.position, ray->direction}});
-    if (!hit) continue;
-    sum += double(hit->distance) / std::sqrt(double(ray->pdf_direction));
-    ++count;
-  }
-  return count ? sum / double(count) : 1e-2;
-}
-
 namespace detail {
 
-/// Adds a float iteration image to the double accumulator.
-inline void accumulate_image(const segpath::Framebuffer<Color>& image, Accumulator& accumulate) {
-  for (std::uint32_t p = 0; p < image.pixel_count(); ++p) accumulate.add(p, to_double(image[p]));
+/// The drops counted in `now` beyond those in `before`.
+[[nodiscard]] inline segpath::DropCounters drops_since(const segpath::DropCounters& now, const segpath::DropCounters& before) noexcept {
+  segpath::DropCounters d;
+  for (std::size_t r = 0; r < segpath::drop_reason_count; ++r) d.counts[r] = now.counts[r] - before.counts[r];
+  return d;
 }
 
 }  // namespace detail
 
-/// The VCM family's default initial merge radius in pixel footprints: 2, the best geometric mean
-/// of relMSE over the four boxes at 10 s of a sweep over 0.5, 1, 2 and 4 (docs/figures.md).
-inline constexpr double vcm_radius_in_footprints = 2.0;
+/// A render of one scene with one library method (a segpath::ProgressiveMethod) through the
+/// library's render protocol, segpath::ProgressiveRender, on the counting scene: it numbers the
+/// iterations, accumulates them in double and computes the kernel schedule once. The renderer's
+/// methods below are this class with the method their options build.
+template <class Library>
+class MethodRun {
+ public:
+  explicit MethodRun(Library method) : method_(std::move(method)) {}
+
+  /// Renders the next iteration of `scene` (the same scene at every call: the first starts the
+  /// render at its sensor's size) and adds rays, paths and drops to `stats`; returns what the
+  /// method's iteration returns (SegmentFiltering: FilteringStats).
+  template <segpath::ParallelFor P>
+  decltype(auto) iterate(const RenderScene& scene, Stats& stats, const P& parallel) {
+    if (!render_) {
+      counting_ = std::make_unique<ThreadCountingScene>(scene);
+      render_.emplace(*counting_, std::move(*method_), scene.sensor().width(), scene.sensor().height());
+      method_.reset();
+    } else if (&counting_->scene() != &scene) {
+      throw std::logic_error("renderer::MethodRun: a render continues on the scene it started on");
+    }
+    const segpath::DropCounters before = render_->drops();
+    (void)counting_->take_rays();
+    const auto finish = [&] {
+      stats.rays += counting_->take_rays();
+      stats.paths += render_->width() * std::uint64_t(render_->height());
+      stats.dropped += detail::drops_since(render_->drops(), before);
+    };
+    if constexpr (std::is_void_v<decltype(render_->iterate(parallel))>) {
+      render_->iterate(parallel);
+      finish();
+    } else {
+      auto result = render_->iterate(parallel);
+      finish();
+      return result;
+    }
+  }
+  /// The sum of the iterations rendered so far (empty before the first).
+  [[nodiscard]] const Accumulator& sum() const {
+    if (!render_) throw std::logic_error("renderer::MethodRun: no iteration rendered yet");
+    return render_->sum();
+  }
+  [[nodiscard]] std::uint64_t iterations() const noexcept { return render_ ? render_->iterations() : 0; }
+
+ private:
+  std::optional<Library> method_;
+  std::unique_ptr<ThreadCountingScene> counting_;  // ProgressiveRender keeps its address
+  std::optional<segpath::ProgressiveRender<ThreadCountingScene, Library>> render_;
+};
+
+/// Path tracing with next-event estimation (segpath::PathTracer::render_iteration): one path
+/// per pixel per iteration, pixel p of iteration i drawing from Pcg32::for_sample(seed, p, i).
+class PtMethod : public MethodRun<segpath::PathTracer<ThreadCountingScene>> {
+ public:
+  static constexpr std::string_view name = "pt";
+  static constexpr std::string_view description = "path tracing with next-event estimation (MIS)";
+
+  // Russian roulette with SmallVCM's rule (core/roulette.hpp) from the third segment on (SmallVCM
+  // starts at the first; the third is better at equal time here: docs/figures.md).
+  explicit PtMethod(const MethodOptions& o)
+      : MethodRun(segpath::PathTracer<ThreadCountingScene>({o.max_length, segpath::MisHeuristic::power, 3, o.seed})) {}
+};
+
+/// Light tracing (segpath::LightTracer::render_iteration): #pixels light paths per iteration,
+/// splatted in a fixed chunk order, so the image for a seed is the same for any thread count.
+class LtMethod : public MethodRun<segpath::LightTracer<ThreadCountingScene>> {
+ public:
+  static constexpr std::string_view name = "lt";
+  static constexpr std::string_view description = "light tracing (splats to the camera)";
+
+  explicit LtMethod(const MethodOptions& o)
+      : MethodRun(segpath::LightTracer<ThreadCountingScene>({o.max_length, 0, o.seed})) {}
+};
 
 /// BDPT, PPM, BPM and VCM (segpath::VertexConnectionMerging, one implementation with modes):
 /// one camera path per pixel and beta x #pixels light paths per iteration; the merge radius
-/// starts at --radius (default: vcm_radius_in_footprints x the average pixel footprint) and
-/// shrinks by --alpha.
+/// starts at --radius (default: the library's segpath::vcm_radius_in_footprints x the average
+/// pixel footprint) and shrinks by --alpha.
 template <segpath::VcmMode Mode>
-class VcmMethod {
+class VcmMethod : public MethodRun<segpath::VertexConnectionMerging<ThreadCountingScene>> {
  public:
   static constexpr std::string_view name = segpath::to_string(Mode);
   static constexpr std::string_view description =
@@ -315,40 +261,21 @@ class VcmMethod {
       : Mode == segpath::VcmMode::bpm ? "bidirectional photon mapping (merging at every camera vertex, MIS)"
                                       : "vertex connection and merging (BDPT + BPM under one MIS)";
 
-  explicit VcmMethod(const MethodOptions& o) : options_(o) {
-    // Validate now (a clear error before rendering); the radius is fixed at the first iteration.
-    (void)segpath::VertexConnectionMerging<ThreadCountingScene>(vcm_options(o.radius.value_or(1.0)));
-  }
-
-  template <segpath::ParallelFor P>
-  void render_iteration(const RenderScene& scene, std::uint64_t iteration, Accumulator& accumulate, Stats& stats,
-                        const P& parallel) {
-    if (!vcm_) vcm_.emplace(vcm_options(options_.radius ? *options_.radius : vcm_radius_in_footprints * pixel_footprint(scene)));
-    if (!image_ || image_->pixel_count() != accumulate.pixel_count()) image_.emplace(accumulate.width(), accumulate.height());
-    image_->clear();
-    const ThreadCountingScene counting(scene);
-    vcm_->render_iteration(counting, iteration, *image_, stats.dropped, parallel);
-    stats.rays += counting.take_rays();
-    stats.paths += accumulate.pixel_count();
-    detail::accumulate_image(*image_, accumulate);
-  }
+  explicit VcmMethod(const MethodOptions& o) : MethodRun(segpath::VertexConnectionMerging<ThreadCountingScene>(vcm_options(o))) {}
 
  private:
-  segpath::VcmOptions vcm_options(double radius) const {
+  static segpath::VcmOptions vcm_options(const MethodOptions& o) {
     segpath::VcmOptions v;  // the library's defaults, but for what the command line set
     v.mode = Mode;
-    v.max_length = options_.max_length;
-    v.initial_radius = radius;
-    if (options_.alpha) v.alpha = *options_.alpha;
-    if (options_.beta) v.light_path_factor = *options_.beta;
-    v.seed = options_.seed;
+    v.max_length = o.max_length;
+    if (o.radius) v.initial_radius = *o.radius;
+    if (o.alpha) v.alpha = *o.alpha;
+    if (o.beta) v.light_path_factor = *o.beta;
+    v.seed = o.seed;
     // Russian roulette from the first scattering, SmallVCM's schedule (docs/figures.md).
     v.roulette_from = 1;
     return v;
   }
-  MethodOptions options_;
-  std::optional<segpath::VertexConnectionMerging<ThreadCountingScene>> vcm_;
-  std::optional<segpath::Framebuffer<Color>> image_;
 };
 
 /// MVF, PhF and BDPF (segpath::SegmentFiltering): approximate sequential segments pooled per
@@ -359,7 +286,7 @@ class VcmMethod {
 /// FilteringOptions::next_event; --no-next-event turns them off; PhF has no camera technique
 /// points): on box 1 they cut BDPF's relMSE at equal time by a quarter (docs/figures.md).
 template <segpath::FilteringMode Mode>
-class FilteringMethod {
+class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountingScene>> {
  public:
   static constexpr std::string_view name = segpath::to_string(Mode);
   static constexpr std::string_view description =
@@ -367,22 +294,16 @@ class FilteringMethod {
       : Mode == segpath::FilteringMode::phf ? "photon filtering (light segments, propagation)"
                                             : "bidirectional path filtering, the paper's method (both sides, MMIS, propagation)";
 
-  explicit FilteringMethod(const MethodOptions& o) : filter_(filtering_options(o)), print_stats_(o.print_stats) {}
+  explicit FilteringMethod(const MethodOptions& o)
+      : MethodRun(segpath::SegmentFiltering<ThreadCountingScene>(filtering_options(o))), print_stats_(o.print_stats) {}
 
+  /// MethodRun::iterate, keeping (and with --stats printing) the iteration's FilteringStats.
   template <segpath::ParallelFor P>
-  void render_iteration(const RenderScene& scene, std::uint64_t iteration, Accumulator& accumulate, Stats& stats,
-                        const P& parallel) {
-    const ThreadCountingScene counting(scene);
-    if (!initial_cell_) initial_cell_ = filter_.initial_cell_size(counting);
-    if (!image_ || image_->pixel_count() != accumulate.pixel_count()) image_.emplace(accumulate.width(), accumulate.height());
-    image_->clear();
-    const segpath::FilteringStats f = filter_.render_iteration_at_cell(
-        counting, iteration, filter_.cell_size(*initial_cell_, iteration), *image_, stats.dropped, parallel);
+  void iterate(const RenderScene& scene, Stats& stats, const P& parallel) {
+    const std::uint64_t iteration = iterations();
+    const segpath::FilteringStats f = MethodRun::iterate(scene, stats, parallel);
     if (print_stats_) print(iteration, f);
     last_stats_ = f;
-    stats.rays += counting.take_rays();
-    stats.paths += accumulate.pixel_count();
-    detail::accumulate_image(*image_, accumulate);
   }
 
   /// The last iteration's counters (segments, bytes per segment, transfer cache), if any.
@@ -418,10 +339,7 @@ class FilteringMethod {
                  double(f.transfer_cache_bytes) / double(1 << 20), f.paths_seconds, f.support_seconds, f.densities_seconds,
                  f.propagation_seconds, f.gather_seconds);
   }
-  segpath::SegmentFiltering<ThreadCountingScene> filter_;
   bool print_stats_ = false;
-  std::optional<T> initial_cell_;
-  std::optional<segpath::Framebuffer<Color>> image_;
   std::optional<segpath::FilteringStats> last_stats_;
 };
 

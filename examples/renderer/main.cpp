@@ -4,18 +4,9 @@
 #include "cornell.hpp"
 #include "image_io.hpp"
 #include "integrators.hpp"
+#include "options.hpp"
 #include "tbb_parallel.hpp"
 
-// OBJ scenes need the loader (another file of this example) and tinyobjloader (CMake defines
-// SEGPATH_RENDER_TINYOBJLOADER where it found it).
-#if defined(SEGPATH_RENDER_TINYOBJLOADER) && __has_include("obj_scene.hpp")
-#include "obj_scene.hpp"
-#define SEGPATH_RENDER_HAS_OBJ 1
-#else
-#define SEGPATH_RENDER_HAS_OBJ 0
-#endif
-
-#include <CLI/CLI.hpp>
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 #include <cstdlib>
@@ -39,68 +30,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-struct Options {
-  std::string scene = "cornell1";
-  std::string method = "pt";
-  std::uint64_t spp = 16;
-  std::optional<double> time;
-  unsigned threads = std::max(1u, std::thread::hardware_concurrency());
-  std::uint64_t seed = 1;
-  std::uint32_t width = 512, height = 512;
-  std::size_t max_length = renderer::cornell_max_length;
-  std::optional<double> radius;
-  std::optional<double> alpha, beta;
-  std::string support = "voxel";
-  bool bridges = false;
-  bool next_event = segpath::FilteringOptions<float>{}.next_event;
-  std::string weighting = segpath::to_string(segpath::FilteringOptions<float>{}.weighting);
-  bool stats = false;
-  std::optional<std::size_t> transfer_cache_mib;
-  std::optional<double> memory_limit_gb;
-  std::vector<std::string> out;
-  std::optional<std::string> reference;
-  // OBJ scenes only: a look-at camera ("x,y,z" vectors).
-  std::string camera_position = "0,0,0", camera_target = "0,1,0", camera_up = "0,0,1";
-  float fov = 45;
-};
-
-bool ends_with_obj(const std::string& s) {
-  if (s.size() < 4) return false;
-  std::string ext = s.substr(s.size() - 4);
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return ext == ".obj";
-}
-
-std::string joined(const std::vector<std::string>& names, const char* separator) {
-  std::string s;
-  for (const auto& n : names) s += (s.empty() ? "" : separator) + n;
-  return s;
-}
-
-/// A positive finite number (CLI::PositiveNumber accepts "inf").
-const CLI::Validator positive_finite(
-    [](std::string& s) -> std::string {
-      double v = 0;
-      if (!CLI::detail::lexical_cast(s, v) || !std::isfinite(v) || !(v > 0)) return "must be a finite number > 0, got " + s;
-      return {};
-    },
-    "POSITIVE");
-
-const CLI::Validator unsigned_integer(
-    [](std::string& s) -> std::string {
-      if (s.empty() || s.size() > 20 || s.find_first_not_of("0123456789") != std::string::npos)
-        return "must be an integer >= 0, got " + s;
-      return {};
-    },
-    "");
-
-const CLI::Validator open_unit_interval(
-    [](std::string& s) -> std::string {
-      double v = 0;
-      if (!CLI::detail::lexical_cast(s, v) || !(v > 0 && v < 1)) return "must lie in (0, 1), got " + s;
-      return {};
-    },
-    "IN (0,1)");
+using renderer::Options;
+using renderer::joined;
+using renderer::ends_with_obj;
 
 /// Checks up front that every output can be written (known extension, existing directory),
 /// so a long render is not lost at the end.
@@ -179,13 +111,12 @@ std::uint64_t estimated_peak_bytes(const Options& o, const renderer::MethodOptio
   renderer::MethodOptions quiet = mo;
   quiet.print_stats = false;
   auto method = renderer::make_method(o.method, quiet);
-  renderer::Accumulator accumulate(pilot.width, pilot.height);
   renderer::Stats stats;
   std::optional<segpath::FilteringStats> f;
   std::visit(
       [&](auto& m) {
         if constexpr (requires { m.last_stats(); }) {
-          m.render_iteration(scene, 0, accumulate, stats, renderer::TbbFor{});
+          m.iterate(scene, stats, renderer::TbbFor{});
           f = m.last_stats();
         }
       },
@@ -243,18 +174,7 @@ int run(const Options& o) {
                                std::to_string(reference->height) + ", the render is " + std::to_string(o.width) + "x" +
                                std::to_string(o.height));
   }
-  renderer::MethodOptions mo;
-  mo.seed = o.seed;
-  mo.max_length = o.max_length;
-  mo.radius = o.radius;
-  mo.alpha = o.alpha;
-  mo.beta = o.beta;
-  mo.support = o.support == "disk" ? segpath::FilteringSupport::disk : segpath::FilteringSupport::voxel;
-  mo.bridges = o.bridges;
-  mo.next_event = o.next_event;
-  mo.weighting = o.weighting == "paper" ? segpath::FilteringWeighting::paper : segpath::FilteringWeighting::path_conditioned;
-  mo.print_stats = o.stats;
-  mo.transfer_cache_mib = o.transfer_cache_mib;
+  const renderer::MethodOptions mo = renderer::method_options(o);
   auto method = renderer::make_method(o.method, mo);
   if (!method) throw std::runtime_error("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
   const renderer::RenderScene scene = load_scene(o);
@@ -275,7 +195,6 @@ int run(const Options& o) {
 
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, o.threads);
   tbb::task_arena arena(int(o.threads));
-  renderer::Accumulator accumulate(o.width, o.height);
   renderer::Stats stats;
   std::uint64_t iterations = 0;
   Progress progress;
@@ -286,7 +205,7 @@ int run(const Options& o) {
         [&](auto& m) {
           for (;;) {
             if (o.time ? (iterations > 0 && elapsed() >= *o.time) : iterations >= o.spp) break;
-            m.render_iteration(scene, iterations, accumulate, stats, renderer::TbbFor{});
+            m.iterate(scene, stats, renderer::TbbFor{});
             ++iterations;
             progress.update(o.time ? elapsed() / *o.time : double(iterations) / double(o.spp), elapsed());
           }
@@ -296,10 +215,12 @@ int run(const Options& o) {
   const double seconds = elapsed();
   progress.finish();
 
-  // The image: sum / iterations; a non-finite pixel (only possible by overflow) is zeroed and counted.
+  // The image: sum / iterations (the sum in double, each iteration's non-finite pixels already
+  // dropped); a pixel that does not fit a float is zeroed and counted.
+  const renderer::Accumulator& sum = std::visit([](const auto& m) -> const renderer::Accumulator& { return m.sum(); }, *method);
   examples::Image image(int(o.width), int(o.height));
-  for (std::uint32_t p = 0; p < accumulate.pixel_count(); ++p) {
-    const auto v = accumulate[p] / double(iterations);
+  for (std::uint32_t p = 0; p < sum.pixel_count(); ++p) {
+    const auto v = sum[p] / double(iterations);
     const segpath::Rgb<float> f(float(v.r), float(v.g), float(v.b));
     if (segpath::is_finite(f)) {
       image.pixels[p] = f;
@@ -340,80 +261,12 @@ int main(int argc, char** argv) {
   // the heap (glibc would return them with munmap and the kernel zero every page again).
   mallopt(M_MMAP_THRESHOLD, 1 << 30);
   mallopt(M_TRIM_THRESHOLD, -1);
-  Options o;
-  CLI::App app("segpath-render: renders a scene with one of segpath's methods and writes EXR/PFM/PNG images.",
-               "segpath-render");
-  const std::string methods = joined(renderer::method_names(), ", ");
-  app.add_option("--scene", o.scene, "cornell0, cornell1, cornell2, cornell3 (SmallVCM's boxes) or PATH.obj")
-      ->capture_default_str();
-  app.add_option("--method", o.method, "rendering method: " + methods)->capture_default_str();
-  auto* spp = app.add_option("--spp", o.spp, "iterations (samples per pixel) to render")
-                  ->check(unsigned_integer)->check(CLI::Range(std::uint64_t(1), std::uint64_t(1) << 32))
-                  ->capture_default_str();
-  app.add_option("--time", o.time, "render until SECONDS of wall time are spent instead of --spp (equal-time runs)")
-      ->check(positive_finite)
-      ->excludes(spp);
-  app.add_option("--threads", o.threads, "worker threads (default: hardware concurrency)")
-      ->check(unsigned_integer)->check(CLI::Range(1u, 1024u))
-      ->capture_default_str();
-  app.add_option("--seed", o.seed, "random seed (an integer >= 0)")->check(unsigned_integer)->capture_default_str();
-  app.add_option("--width", o.width, "image width in pixels")->check(unsigned_integer)->check(CLI::Range(1u, 16384u))->capture_default_str();
-  app.add_option("--height", o.height, "image height in pixels")->check(unsigned_integer)->check(CLI::Range(1u, 16384u))->capture_default_str();
-  app.add_option("--max-length", o.max_length, "segments per path, the camera segment included")
-      ->check(unsigned_integer)->check(CLI::Range(std::size_t(1), std::size_t(1000)))
-      ->capture_default_str();
-  app.add_option("--radius", o.radius,
-                 "initial kernel radius (bdpt/ppm/bpm/vcm) or voxel size (mvf/phf/bdpf), > 0; default: 2x (vcm family) "
-                 "or 4x (filtering) the average pixel footprint")
-      ->check(positive_finite);
-  app.add_option("--alpha", o.alpha, "progressive kernel shrinking, in (0, 1); default 0.75 (vcm family), 0.67 (filtering)")
-      ->check(open_unit_interval);
-  app.add_option("--beta", o.beta, "light paths per camera path, > 0; default 1")
-      ->check(positive_finite);
-  app.add_option("--support", o.support, "mvf/phf/bdpf: kernel support of the junctions, voxel (the paper's) or disk")
-      ->check(CLI::IsMember({"voxel", "disk"}))
-      ->capture_default_str();
-  app.add_flag("--bridges", o.bridges, "bdpf: also join camera and light paths by bridge segments");
-  app.add_flag("--next-event,!--no-next-event", o.next_event,
-               "mvf/bdpf: also draw a segment to a light point from every camera path vertex (default: on)");
-  app.add_option("--weighting", o.weighting,
-                 "bdpf: chain weighting, path (path-conditioned, unbiased) or paper (prod 1 / D, biased)")
-      ->check(CLI::IsMember({"path", "paper"}))
-      ->capture_default_str();
-  app.add_option("--transfer-cache", o.transfer_cache_mib,
-                 "mvf/phf/bdpf: MiB of pair transfers cached per iteration (0: none, every sweep evaluates them); "
-                 "default 1024")
-      ->check(CLI::Range(std::size_t(0), std::size_t(1) << 20));
-  app.add_option("--memory-limit", o.memory_limit_gb,
-                 "GB of memory the render may use; a render estimated to need more stops before it starts "
-                 "(default: the memory available)")
-      ->check(positive_finite);
-  app.add_flag("--stats", o.stats,
-               "mvf/phf/bdpf: print each iteration's segments, clusters, pair evaluations and stage times on stderr");
-#if SEGPATH_RENDER_HAS_OBJ
-  app.add_option("--camera-position", o.camera_position, "OBJ scenes: camera position x,y,z")->capture_default_str();
-  app.add_option("--camera-target", o.camera_target, "OBJ scenes: point the camera looks at, x,y,z")->capture_default_str();
-  app.add_option("--camera-up", o.camera_up, "OBJ scenes: up direction x,y,z")->capture_default_str();
-  app.add_option("--fov", o.fov, "OBJ scenes: vertical field of view in degrees, in (0, 180)")
-      ->check(positive_finite)
-      ->capture_default_str();
-#endif
-  app.add_option("--out", o.out, "output image, .exr (float RGB), .pfm or .png (clamped, sRGB); repeatable");
-  app.add_option("--reference", o.reference,
-                 "reference image (.pfm or .exr): prints RMSE and relMSE, relMSE = mean over pixels and channels of "
-                 "(x - r)^2 / (r^2 + 1e-2)");
-  app.footer(
-      "Prints one summary line on stdout: method, scene, resolution, samples per pixel (iterations), threads, wall time, "
-      "samples and rays (intersect + visible calls) per second, image mean, dropped samples by reason, and with "
-      "--reference the RMSE and relMSE (mean over pixels and channels of (x - r)^2 / (r^2 + 1e-2)).\n");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::CallForHelp& e) {
-    return app.exit(e);
-  } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "segpath-render: %s (see --help)\n", e.what());
-    return 2;
+  const renderer::CommandLine command_line = renderer::parse_command_line(argc, argv);
+  if (!command_line.options) {
+    std::fputs(command_line.message.c_str(), command_line.exit_code == 0 ? stdout : stderr);
+    return command_line.exit_code;
   }
+  const Options& o = *command_line.options;
   try {
     return run(o);
   } catch (const std::exception& e) {

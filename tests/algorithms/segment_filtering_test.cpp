@@ -119,8 +119,8 @@ TEST_CASE("segment filtering: factorised clusters give the same image", "[algori
     SegmentFiltering<PhotographedSlab<double>> slow(o);
     Framebuffer<double> a(8, 8), b(8, 8);
     DropCounters drops;
-    const auto sa = fast.render_iteration_at_cell(scene, 0, 0.3, a, drops);
-    const auto sb = slow.render_iteration_at_cell(scene, 0, 0.3, b, drops);
+    const auto sa = fast.render_iteration_at(scene, 0, 0.3, a, drops);
+    const auto sb = slow.render_iteration_at(scene, 0, 0.3, b, drops);
     INFO("mode " << to_string(mode));
     CHECK(sa.factorised_camera_clusters + sa.factorised_light_clusters > 0);
     CHECK(sb.factorised_camera_clusters + sb.factorised_light_clusters == 0);
@@ -138,8 +138,8 @@ TEST_CASE("segment filtering: the image does not depend on the thread count", "[
   const SegmentFiltering<PhotographedSlab<double>> bdpf(o);
   Framebuffer<double> a(8, 8), b(8, 8);
   DropCounters drops;
-  bdpf.render_iteration_at_cell(scene, 2, 0.3, a, drops, SerialFor{});
-  bdpf.render_iteration_at_cell(scene, 2, 0.3, b, drops, segpath::testing::TwoThreadFor{});
+  bdpf.render_iteration_at(scene, 2, 0.3, a, drops, SerialFor{});
+  bdpf.render_iteration_at(scene, 2, 0.3, b, drops, segpath::testing::TwoThreadFor{});
   for (std::uint32_t p = 0; p < 64; ++p) CHECK(a[p] == b[p]);
 }
 
@@ -168,7 +168,7 @@ TEST_CASE("MVF, PhF and BDPF: a fast furnace check for the sanitizer run", "[alg
       DropCounters drops;
       for (std::uint64_t it = 0; it < 12; ++it) {
         Framebuffer<double> image(8, 8);
-        method.render_iteration_at_cell(scene, it, 0.5, image, drops);
+        method.render_iteration_at(scene, it, 0.5, image, drops);
         double mean = 0;
         for (auto v : image.pixels()) mean += v;
         stats.add(mean / 64.0);
@@ -212,7 +212,7 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
     const std::uint64_t iterations = mode == FilteringMode::mvf ? 60 : 600;
     for (std::uint64_t it = 1; it <= iterations; ++it) {
       Framebuffer<double> image(16, 16);
-      method.render_iteration_at_cell(scene, it - 1, 0.5, image, drops);
+      method.render_iteration_at(scene, it - 1, 0.5, image, drops);
       double mean = 0;
       for (auto v : image.pixels()) mean += v;
       stats.add(mean / 256.0);
@@ -244,7 +244,7 @@ TEST_CASE("the BDPF furnace test has the power to see a 0.1 % error", "[algorith
   DropCounters drops;
   for (std::uint64_t it = 1; it <= 1200; ++it) {
     Framebuffer<double> image(16, 16);
-    right.render_iteration_at_cell(scene, it - 1, 0.5, image, drops);
+    right.render_iteration_at(scene, it - 1, 0.5, image, drops);
     double mean = 0;
     for (auto v : image.pixels()) mean += v;
     good.add(mean / 256.0);
@@ -351,14 +351,14 @@ TEST_CASE("segment filtering: the transfer cache gives the same image, whole or 
   const SegmentFiltering<PhotographedSphere> uncached(o);
   Framebuffer<double> reference(8, 8);
   DropCounters drops;
-  const auto s0 = uncached.render_iteration_at_cell(scene, 1, 0.3, reference, drops);
+  const auto s0 = uncached.render_iteration_at(scene, 1, 0.3, reference, drops);
   CHECK(s0.transfer_cache_bytes == 0);
   std::size_t full_bytes = 0;
   for (const std::size_t budget : {std::size_t(1) << 30, std::size_t(4096)}) {
     o.transfer_cache_bytes = budget;
     const SegmentFiltering<PhotographedSphere> cached(o);
     Framebuffer<double> image(8, 8);
-    const auto stats = cached.render_iteration_at_cell(scene, 1, 0.3, image, drops);
+    const auto stats = cached.render_iteration_at(scene, 1, 0.3, image, drops);
     INFO("budget " << budget << ": cache " << stats.transfer_cache_bytes << " bytes");
     CHECK(stats.transfer_cache_bytes > 0);
     if (full_bytes == 0) full_bytes = stats.transfer_cache_bytes;
@@ -395,8 +395,8 @@ TEST_CASE("segment filtering: disk support, bridges and next-event segments do n
     const SegmentFiltering<PhotographedSphere> bdpf(o);
     Framebuffer<double> a(8, 8), b(8, 8);
     DropCounters drops;
-    const auto stats = bdpf.render_iteration_at_cell(scene, 2, 0.3, a, drops, SerialFor{});
-    bdpf.render_iteration_at_cell(scene, 2, 0.3, b, drops, segpath::testing::TwoThreadFor{});
+    const auto stats = bdpf.render_iteration_at(scene, 2, 0.3, a, drops, SerialFor{});
+    bdpf.render_iteration_at(scene, 2, 0.3, b, drops, segpath::testing::TwoThreadFor{});
     INFO(to_string(support));
     CHECK(stats.bridge_segments > 0);
     CHECK(stats.next_event_segments > 0);
@@ -425,7 +425,7 @@ testing::RunningStats image_means(const SegmentFiltering<Scn>& method, const Scn
   testing::RunningStats stats;
   for (std::uint64_t it = 1; it <= iterations; ++it) {
     Framebuffer<double> image(size, size);
-    method.render_iteration_at_cell(scene, it - 1, cell, image, drops);
+    method.render_iteration_at(scene, it - 1, cell, image, drops);
     double mean = 0;
     for (auto v : image.pixels()) mean += v;
     stats.add(mean / double(size * size));
@@ -591,7 +591,7 @@ TEST_CASE("with a user's own technique, MVF, PhF and BDPF stay exact in the peri
     std::uint64_t extras = 0;
     for (std::uint64_t it = 0; it < 400; ++it) {
       Framebuffer<double> image(16, 16);
-      extras += method.render_iteration_at_cell(scene, it, 0.5, image, drops).extra_segments;
+      extras += method.render_iteration_at(scene, it, 0.5, image, drops).extra_segments;
       double mean = 0;
       for (auto v : image.pixels()) mean += v;
       stats.add(mean / 256.0);

@@ -124,7 +124,7 @@ TEST_CASE("S-D-S: PPM and VCM converge to the submerged plane's closed form", "[
     for (int k = 0; k < 2; ++k) {
       const VertexConnectionMerging<Scn> method(vcm_options(mode, radii[k], 5 + k));
       stats[k] = run([&](std::uint64_t i, Framebuffer<double>& image,
-                         DropCounters& drops) { method.render_iteration_at_radius(scene, i, radii[k], image, drops, SerialFor{}); },
+                         DropCounters& drops) { method.render_iteration_at(scene, i, radii[k], image, drops, SerialFor{}); },
                      k == 0 ? 400 : 1600);
     }
     check_convergence(to_string(mode), scene, radii, stats,
@@ -140,7 +140,7 @@ TEST_CASE("S-D-S: PhF and BDPF converge to the submerged plane's closed form", "
     for (int k = 0; k < 2; ++k) {
       const SegmentFiltering<Scn> method(filtering_options(mode, 9 + k));
       stats[k] = run([&](std::uint64_t i, Framebuffer<double>& image,
-                         DropCounters& drops) { method.render_iteration_at_cell(scene, i, cells[k], image, drops, SerialFor{}); },
+                         DropCounters& drops) { method.render_iteration_at(scene, i, cells[k], image, drops, SerialFor{}); },
                      k == 0 ? 400 : 1600);
     }
     check_convergence(to_string(mode), scene, cells, stats,
@@ -154,7 +154,7 @@ TEST_CASE("S-D-S: MVF has no technique for a point light seen through glass", "[
   for (std::uint64_t i = 0; i < 20; ++i) {
     Framebuffer<double> image(static_cast<std::uint32_t>(probes.size()), 1);
     DropCounters drops;
-    method.render_iteration_at_cell(scene, i, 0.3, image, drops, SerialFor{});
+    method.render_iteration_at(scene, i, 0.3, image, drops, SerialFor{});
     for (std::uint32_t p = 0; p < probes.size(); ++p) CHECK(image[p] == 0);
   }
 }

@@ -129,7 +129,7 @@ std::vector<testing::RunningStats> run(const VertexConnectionMerging<Scn>& metho
   for (std::uint64_t i = 0; i < iterations; ++i) {
     image.clear();
     if (fixed_radius > 0)
-      method.render_iteration_at_radius(scene, i, typename Scn::Scalar(fixed_radius), image, drops, SerialFor{});
+      method.render_iteration_at(scene, i, typename Scn::Scalar(fixed_radius), image, drops, SerialFor{});
     else
       method.render_iteration(scene, i, image, drops, SerialFor{});
     double mean = 0;

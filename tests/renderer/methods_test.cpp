@@ -52,11 +52,10 @@ double channel_mean(const segpath::Rgb<double>& c) { return (c.r + c.g + c.b) / 
 template <class P>
 renderer::Accumulator render(renderer::Method& method, const RenderScene& scene, std::uint64_t iterations,
                              renderer::Stats& stats, const P& parallel) {
-  renderer::Accumulator acc(scene.sensor().width(), scene.sensor().height());
-  std::visit([&](auto& m) {
-    for (std::uint64_t i = 0; i < iterations; ++i) m.render_iteration(scene, i, acc, stats, parallel);
+  return std::visit([&](auto& m) {
+    for (std::uint64_t i = 0; i < iterations; ++i) m.iterate(scene, stats, parallel);
+    return m.sum();
   }, method);
-  return acc;
 }
 
 /// Each iteration's image is one sample of every pixel: per tile, the iteration's mean over
@@ -66,21 +65,24 @@ std::vector<std::vector<double>> iteration_tile_means(const std::string& name, c
   auto method = renderer::make_method(name, options);
   REQUIRE(method);
   std::vector<std::vector<double>> result(tiles.count);
-  renderer::Accumulator acc(scene.sensor().width(), scene.sensor().height());
   renderer::Stats stats;
   std::vector<double> sum(tiles.count), count(tiles.count);
+  std::optional<renderer::Accumulator> before;  // the sum up to the previous iteration
   for (std::uint64_t i = 0; i < iterations; ++i) {
-    acc.clear();
-    std::visit([&](auto& m) { m.render_iteration(scene, i, acc, stats, renderer::TbbFor{}); }, *method);
+    const renderer::Accumulator& acc = std::visit([&](auto& m) -> const renderer::Accumulator& {
+      m.iterate(scene, stats, renderer::TbbFor{});
+      return m.sum();
+    }, *method);
     std::fill(sum.begin(), sum.end(), 0.0);
     std::fill(count.begin(), count.end(), 0.0);
     for (std::uint32_t p = 0; p < acc.pixel_count(); ++p) {
       if (tiles.of[p] < 0) continue;
-      sum[std::size_t(tiles.of[p])] += channel_mean(acc[p]);
+      sum[std::size_t(tiles.of[p])] += channel_mean(before ? acc[p] - (*before)[p] : acc[p]);
       count[std::size_t(tiles.of[p])] += 1;
     }
     for (std::size_t t = 0; t < tiles.count; ++t)
       if (count[t] > 0) result[t].push_back(sum[t] / count[t]);
+    before = acc;
   }
   CHECK(stats.dropped.total() == 0);
   return result;
@@ -128,20 +130,21 @@ PtReference pt_reference(const RenderScene& scene, std::uint64_t seed, std::uint
   renderer::PtMethod pt(options);
   const std::uint32_t n = scene.sensor().pixel_count();
   PtReference r{std::vector<RunningStats>(n), std::vector<bool>(n, true)};
-  renderer::Accumulator acc(scene.sensor().width(), scene.sensor().height());
   renderer::Stats stats;
   const segpath::SensorStartSampler<RenderScene> first;
+  std::optional<renderer::Accumulator> before;  // the sum up to the previous iteration
   for (std::uint64_t i = 0; i < spp; ++i) {
-    acc.clear();
-    pt.render_iteration(scene, i, acc, stats, renderer::TbbFor{});
+    pt.iterate(scene, stats, renderer::TbbFor{});
+    const renderer::Accumulator& acc = pt.sum();
     for (std::uint32_t p = 0; p < n; ++p) {
-      r.pixels[p].add(channel_mean(acc[p]));
+      r.pixels[p].add(channel_mean(before ? acc[p] - (*before)[p] : acc[p]));
       auto rng = segpath::Pcg32::for_sample(seed, p, i);
       const auto s = first.sample(scene, {p}, rng);
       const bool diffuse = s && s->segment.y.kind == segpath::PointKind::surface && !scene.bsdf().is_delta(s->segment.y) &&
                            segpath::is_black(segpath::emission_factor(scene, s->segment, s->direction));
       if (!diffuse) r.diffuse_first[p] = false;
     }
+    before = acc;
   }
   CHECK(stats.dropped.total() == 0);
   return r;
@@ -259,7 +262,7 @@ TEST_CASE("VCM at a small radius agrees with PT per tile on box 1", "[renderer][
   const RenderScene scene = renderer::make_cornell(1, size, size);
   renderer::MethodOptions options;
   options.seed = 202;
-  options.radius = renderer::pixel_footprint(scene);
+  options.radius = segpath::pixel_footprint(scene);
   const auto vcm = stats_of(iteration_tile_means("vcm", options, scene, tiles, 128));
   rejections(pt_box(1).tiles(tiles), vcm, alpha, "VCM r/4", true);
   CHECK(rejections(pt_box(1).tiles(tiles, 1.05), vcm, alpha, "VCM r/4 vs 1.05 PT", false) > 0);
@@ -278,10 +281,10 @@ TEST_CASE("BDPF agrees with VCM per tile on the Dirac-lit boxes 0 and 2 (caustic
     const RenderScene scene = renderer::make_cornell(box, size, size);
     renderer::MethodOptions options;
     options.seed = 404;
-    options.radius = renderer::pixel_footprint(scene);
+    options.radius = segpath::pixel_footprint(scene);
     const auto vcm = stats_of(iteration_tile_means("vcm", options, scene, tiles, 256));
     options.seed = 405;
-    options.radius = 2 * renderer::pixel_footprint(scene);  // half the default voxel
+    options.radius = 2 * segpath::pixel_footprint(scene);  // half the default voxel
     const auto bdpf = stats_of(iteration_tile_means("bdpf", options, scene, tiles, 256));
     const auto d = differences(vcm, bdpf);
     std::size_t wrong_rejected = 0;
@@ -333,7 +336,7 @@ ClusteredPool clustered_pool(const Filter& filter, const renderer::ThreadCountin
 
 void check_filtering_bias(const std::string& name, std::uint64_t iterations, const RenderScene& scene, const PtReference& reference) {
   const Tiles tiles = square_tiles();
-  const double h = 4 * renderer::pixel_footprint(scene);
+  const double h = 4 * segpath::pixel_footprint(scene);
   renderer::MethodOptions options;
   options.seed = 303;
   options.beta = 0.25;  // sparse light paths: the weighting's cross terms show most
@@ -453,9 +456,9 @@ TEST_CASE("BDPF on box 1: clusters with next-event ends on the black emitter fac
   // The image with and without factorisation (float sums in another order).
   segpath::Framebuffer<renderer::Color> a(48, 48), b(48, 48);
   segpath::DropCounters drops;
-  filter.render_iteration_at_cell(scene, 0, 0.06f, a, drops);
+  filter.render_iteration_at(scene, 0, 0.06f, a, drops);
   o.factorise = false;
-  Filter(o).render_iteration_at_cell(scene, 0, 0.06f, b, drops);
+  Filter(o).render_iteration_at(scene, 0, 0.06f, b, drops);
   double difference = 0, total = 0;
   for (std::uint32_t p = 0; p < 48 * 48; ++p) {
     difference += std::abs(double(a[p].r) - double(b[p].r));
@@ -571,7 +574,7 @@ TEST_CASE("BDPF's image mean is PT's in a closed diffuse box at max length 2, 3 
     segpath::DropCounters drops;
     for (std::uint64_t i = 0; i < 400; ++i) {
       segpath::Framebuffer<renderer::Color> image(side, side);
-      filter.render_iteration_at_cell(counting, i, 1.0f / 16, image, drops, renderer::TbbFor{});
+      filter.render_iteration_at(counting, i, 1.0f / 16, image, drops, renderer::TbbFor{});
       double mean = 0;
       for (std::uint32_t p = 0; p < image.pixel_count(); ++p) mean += channel_mean(renderer::detail::to_double(image[p]));
       bdpf.add(mean / image.pixel_count());

@@ -28,17 +28,24 @@
 
 namespace {
 
+/// The sink of one PT sample: its value, or a counted drop.
+struct PixelSink {
+  renderer::Color value;
+  segpath::DropCounters* drops;
+  void add(std::uint32_t, const renderer::Color& v) noexcept { value += v; }
+  void drop(segpath::DropReason r) noexcept { drops->add(r); }
+};
+
 using renderer::Color;
 using renderer::RenderScene;
 using segpath::testing::RunningStats;
 
-/// Renders `iterations` iterations of `method` into a fresh accumulator with `parallel`.
+/// Renders `iterations` iterations of `method` with `parallel`; their sum.
 template <class M, class P>
 renderer::Accumulator render(M& method, const RenderScene& scene, std::uint64_t iterations, renderer::Stats& stats,
                              const P& parallel) {
-  renderer::Accumulator acc(scene.sensor().width(), scene.sensor().height());
-  for (std::uint64_t i = 0; i < iterations; ++i) method.render_iteration(scene, i, acc, stats, parallel);
-  return acc;
+  for (std::uint64_t i = 0; i < iterations; ++i) method.iterate(scene, stats, parallel);
+  return method.sum();
 }
 
 double accumulator_mean(const renderer::Accumulator& acc, std::uint64_t iterations) {
@@ -139,7 +146,7 @@ TEST_CASE("path tracing matches box 1's sanity figure within 5 sigma", "[rendere
       const auto pixel = std::uint32_t(row) * size + x;
       for (std::uint64_t s = 0; s < spp; ++s) {
         auto rng = segpath::Pcg32::for_sample(2025, pixel, s);
-        renderer::detail::PixelSink sink{Color(0.0f), false, &drops};
+        PixelSink sink{Color(0.0f), &drops};
         tracer.estimate(scene, segpath::EstimateQuery{pixel, s}, rng, sink);
         for (int c = 0; c < 3; ++c) pixels[pixel][std::size_t(c)].add(sink.value[c]);
         pixels[pixel][3].add(channel_mean(sink.value));
@@ -191,7 +198,7 @@ TEST_CASE("light tracing agrees with path tracing on the paths both sample", "[r
         for (std::uint64_t s = 0; s < pt_spp; ++s) {
           auto rng = segpath::Pcg32::for_sample(11, pixel, s);
           const bool shared = light_tracer_family(scene, pixel, rng);
-          renderer::detail::PixelSink sink{Color(0.0f), false, &drops};
+          PixelSink sink{Color(0.0f), &drops};
           pt.estimate(scene, segpath::EstimateQuery{pixel, s}, rng, sink);
           const double v = channel_mean(sink.value);
           pt_rows[row][grid.of(pixel)].add(shared ? v : 0.0);

@@ -6,22 +6,28 @@
 
 #include "segpath/concepts/estimator.hpp"
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/framebuffer.hpp"
+#include "segpath/core/parallel.hpp"
+#include "segpath/core/rng.hpp"
 #include "segpath/core/roulette.hpp"
 #include "segpath/kernels/dirac.hpp"
 #include "segpath/samplers/bridge.hpp"
 #include "segpath/samplers/light_next.hpp"
 #include "segpath/samplers/light_start.hpp"
 
-#include <algorithm>
 #include <cstddef>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace segpath {
 
 struct LightTracerOptions {
   std::size_t max_length = 10;  ///< segments per path, the sensor segment included (>= 2)
   std::size_t roulette_from = 0;  ///< Russian roulette (core/roulette.hpp) from this many light segments on (0: never)
+  /// render_iteration: light path k of iteration i draws from Pcg32::for_sample(seed ^ salt, k, i),
+  /// streams disjoint from PathTracer's for the same seed
+  std::uint64_t seed = 0;
 };
 
 template <LightSampledScene Scn>
@@ -36,6 +42,35 @@ class LightTracer {
                                   std::to_string(options.max_length));
   }
   [[nodiscard]] const LightTracerOptions& options() const noexcept { return options_; }
+
+  /// Work chunks of render_iteration (fixed: never the thread count).
+  static constexpr std::size_t chunk_count = 64;
+  static constexpr std::uint64_t stream_salt = 0x4c54'0000'0000'0000ULL;
+
+  /// Adds one iteration's estimate to `image` (sensor-sized): N = #pixels light paths, whose
+  /// splats are summed and divided by N (N16). The paths are split into chunk_count chunks whose
+  /// splats are applied in chunk order (SplatRecorder), so the image is the same whatever
+  /// `parallel_for` does; non-finite splats are counted in `drops`.
+  template <ParallelFor P = SerialFor>
+  void render_iteration(const Scn& scene, std::uint64_t iteration, Framebuffer<S>& image, DropCounters& drops,
+                        const P& parallel_for = {}) const {
+    const std::uint64_t n = scene.sensor().pixel_count();
+    if (image.pixel_count() != n)
+      throw std::invalid_argument("segpath::LightTracer: the image has " + std::to_string(image.pixel_count()) +
+                                  " pixels, the sensor " + std::to_string(n));
+    SplatRecorder<S> recorder(chunk_count);
+    parallel_for(chunk_count, [&](std::size_t chunk) {
+      auto sink = recorder.sink(chunk);
+      for (std::uint64_t k = n * chunk / chunk_count, end = n * (chunk + 1) / chunk_count; k < end; ++k) {
+        Pcg32 rng = Pcg32::for_sample(options_.seed ^ stream_salt, k, iteration);
+        estimate(scene, EstimateQuery{0, iteration * n + k}, rng, sink);
+      }
+    });
+    Framebuffer<S> sum(image.width(), image.height());
+    recorder.apply(sum, drops);
+    const T inv_n = T(1) / T(n);
+    for (std::uint32_t p = 0; p < sum.pixel_count(); ++p) image.add(p, sum[p] * inv_n);
+  }
 
   /// One light path; q.pixel is ignored. Every camera connection is one sink.add to the
   /// pixel it lands in, or one sink.drop when it is not finite.

@@ -5,6 +5,9 @@
 
 #include "segpath/concepts/estimator.hpp"
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/framebuffer.hpp"
+#include "segpath/core/parallel.hpp"
+#include "segpath/core/rng.hpp"
 #include "segpath/core/roulette.hpp"
 #include "segpath/integrand/contribution.hpp"
 #include "segpath/kernels/dirac.hpp"
@@ -17,6 +20,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <vector>
 
 namespace segpath {
 
@@ -26,6 +30,7 @@ struct PathTracerOptions {
   /// Russian roulette (core/roulette.hpp) after every scattering from this path length on (0:
   /// never). Changes noise only.
   std::size_t roulette_from = 0;
+  std::uint64_t seed = 0;  ///< render_iteration: pixel p of iteration i draws from Pcg32::for_sample(seed, p, i)
 };
 
 template <LightSampledScene Scn>
@@ -40,6 +45,30 @@ class PathTracer {
                                   std::to_string(options.max_length));
   }
   [[nodiscard]] const PathTracerOptions& options() const noexcept { return options_; }
+
+  /// Adds one iteration's estimate to `image` (sensor-sized): one path per pixel, a task per
+  /// row of image.width() pixels. Deterministic for a given seed and iteration whatever
+  /// `parallel_for` does; non-finite paths are counted in `drops`.
+  template <ParallelFor P = SerialFor>
+  void render_iteration(const Scn& scene, std::uint64_t iteration, Framebuffer<S>& image, DropCounters& drops,
+                        const P& parallel_for = {}) const {
+    if (image.pixel_count() != scene.sensor().pixel_count())
+      throw std::invalid_argument("segpath::PathTracer: the image has " + std::to_string(image.pixel_count()) +
+                                  " pixels, the sensor " + std::to_string(scene.sensor().pixel_count()));
+    const std::uint32_t width = image.width();
+    std::vector<DropCounters> row_drops(image.height());
+    parallel_for(std::size_t(image.height()), [&](std::size_t row) {
+      PixelSink sink{S(T(0)), &row_drops[row]};
+      for (std::uint32_t x = 0; x < width; ++x) {
+        const std::uint32_t pixel = std::uint32_t(row) * width + x;
+        Pcg32 rng = Pcg32::for_sample(options_.seed, pixel, iteration);
+        sink.value = S(T(0));
+        estimate(scene, EstimateQuery{pixel, iteration}, rng, sink);
+        image.add(pixel, sink.value);
+      }
+    });
+    for (const DropCounters& d : row_drops) drops += d;
+  }
 
   /// One path for pixel q.pixel; exactly one sink.add (possibly zero) or sink.drop.
   /// Emission reached by a BSDF-sampled segment is weighted against the light bridge that
@@ -111,6 +140,14 @@ class PathTracer {
   }
 
  private:
+  /// The sink of one path: its value (0 when dropped).
+  struct PixelSink {
+    S value;
+    DropCounters* drops;
+    void add(std::uint32_t, const S& v) noexcept { value += v; }
+    void drop(DropReason r) noexcept { drops->add(r); }
+  };
+
   PathTracerOptions options_;
   SensorStartSampler<Scn> first_;
   NextSegmentSampler<Scn, DiracKernel<T>> next_{DiracKernel<T>{}};

@@ -66,13 +66,14 @@ class SegmentFiltering {
     return filtering::light_path_count(scene, filtering::technique_set(options_));
   }
 
-  /// The voxel size of iteration 0: the option, or 4x the average pixel footprint.
+  /// The voxel size of iteration 0: the option, or filtering::cell_in_footprints (4) average
+  /// pixel footprints (sensors/pixel_footprint.hpp).
   [[nodiscard]] T initial_cell_size(const Scn& scene) const {
     return options_.initial_cell_size > T(0) ? options_.initial_cell_size : filtering::pixel_footprint_cell(scene);
   }
-  /// The voxel size of `iteration` (0-based) given that of iteration 0 (the PPM schedule).
-  [[nodiscard]] T cell_size(T initial, std::uint64_t iteration) const {
-    return ProgressiveRadius<T>(initial, options_.alpha).radius(iteration + 1);
+  /// The voxel size of every iteration: from initial_cell_size, shrinking by the PPM schedule.
+  [[nodiscard]] KernelSchedule<T> kernel_schedule(const Scn& scene) const {
+    return KernelSchedule<T>(initial_cell_size(scene), options_.alpha);
   }
 
   /// A fresh context for `iteration` (0-based), for running the stages one by one.
@@ -101,14 +102,14 @@ class SegmentFiltering {
   template <ParallelFor P = SerialFor>
   FilteringStats render_iteration(const Scn& scene, std::uint64_t iteration, Framebuffer<S>& image, DropCounters& drops,
                                   const P& parallel_for = {}) const {
-    return render_iteration_at_cell(scene, iteration, cell_size(initial_cell_size(scene), iteration), image, drops,
-                                    parallel_for);
+    return render_iteration_at(scene, iteration, kernel_schedule(scene).at(iteration), image, drops, parallel_for);
   }
 
-  /// render_iteration with an explicit voxel size (e.g. a fixed one, to measure kernel bias).
+  /// render_iteration with an explicit voxel size `cell` (e.g. a schedule computed once, or a
+  /// fixed size to measure kernel bias).
   template <ParallelFor P = SerialFor>
-  FilteringStats render_iteration_at_cell(const Scn& scene, std::uint64_t iteration, T cell, Framebuffer<S>& image,
-                                          DropCounters& drops, const P& parallel_for = {}) const {
+  FilteringStats render_iteration_at(const Scn& scene, std::uint64_t iteration, T cell, Framebuffer<S>& image,
+                                     DropCounters& drops, const P& parallel_for = {}) const {
     using Clock = std::chrono::steady_clock;
     auto lap = [last = Clock::now()](double& seconds) mutable {
       const auto now = Clock::now();

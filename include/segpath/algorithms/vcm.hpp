@@ -19,6 +19,7 @@
 #include "segpath/samplers/light_start.hpp"
 #include "segpath/samplers/next_segment.hpp"
 #include "segpath/samplers/sensor_start.hpp"
+#include "segpath/sensors/pixel_footprint.hpp"
 #include "segpath/weights/mis.hpp"
 
 #include <algorithm>
@@ -52,11 +53,18 @@ enum class VcmMode : std::uint8_t { bdpt, ppm, bpm, vcm };
   return "unknown";
 }
 
+/// The automatic initial merge radius in average pixel footprints (sensors/pixel_footprint.hpp):
+/// 2, the best geometric mean of relMSE over SmallVCM's four boxes at 10 s in a sweep over 0.5,
+/// 1, 2 and 4 (docs/figures.md).
+inline constexpr double vcm_radius_in_footprints = 2.0;
+
 struct VcmOptions {
   VcmMode mode = VcmMode::vcm;
   std::size_t max_length = 10;  ///< segments per path, the sensor segment included (>= 1)
   MisHeuristic heuristic = MisHeuristic::power;
-  double initial_radius = 0.01;  ///< disk-kernel radius of iteration 0 (> 0)
+  /// Disk-kernel radius of iteration 0 in scene units; 0 (the default): vcm_radius_in_footprints
+  /// average pixel footprints of the scene's sensor (kernel_schedule).
+  double initial_radius = 0;
   double alpha = 0.75;           ///< radius schedule r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1), in (0, 1)
   double light_path_factor = 1;  ///< light subpaths per iteration = round(factor * pixels), >= 1
   /// Russian roulette (core/roulette.hpp) after every scattering of a subpath from this many
@@ -152,12 +160,18 @@ class VertexConnectionMerging {
   static constexpr T merge_min_normal_cosine = T(0.5);
 
   explicit VertexConnectionMerging(VcmOptions options = {})
-      : options_(validated(options)), schedule_(T(options.initial_radius), T(options.alpha)) {}
+      : options_(validated(options)) {}
 
   [[nodiscard]] const VcmOptions& options() const noexcept { return options_; }
 
-  /// The kernel radius of iteration i (0-based): ProgressiveRadius's r_{i+1}.
-  [[nodiscard]] T radius(std::uint64_t iteration) const noexcept { return schedule_.radius(iteration + 1); }
+  /// The merge radius of every iteration: none for bdpt; else from initial_radius (or
+  /// vcm_radius_in_footprints pixel footprints when it is 0), shrinking by ProgressiveRadius.
+  [[nodiscard]] KernelSchedule<T> kernel_schedule(const Scn& scene) const {
+    if (options_.mode == VcmMode::bdpt) return {};
+    const T initial = options_.initial_radius > 0 ? T(options_.initial_radius)
+                                                  : T(vcm_radius_in_footprints) * pixel_footprint(scene, T(5e-3));
+    return KernelSchedule<T>(initial, T(options_.alpha));
+  }
 
   /// N_light = max(1, round(light_path_factor * pixels)).
   [[nodiscard]] std::uint32_t light_path_count(std::uint32_t pixels) const noexcept {
@@ -184,21 +198,23 @@ class VertexConnectionMerging {
   }
 
   /// Adds one iteration's estimate to `image` (image.pixel_count() == sensor pixel count).
-  template <ParallelFor P>
+  template <ParallelFor P = SerialFor>
   void render_iteration(const Scn& scene, std::uint64_t iteration, Framebuffer<S>& image, DropCounters& drops,
-                        const P& parallel_for) const {
-    render_iteration_at_radius(scene, iteration, radius(iteration), image, drops, parallel_for);
+                        const P& parallel_for = {}) const {
+    render_iteration_at(scene, iteration, kernel_schedule(scene).at(iteration), image, drops, parallel_for);
   }
 
-  /// render_iteration with an explicit kernel radius (e.g. a fixed one, to measure kernel bias).
-  template <ParallelFor P>
-  void render_iteration_at_radius(const Scn& scene, std::uint64_t iteration, T radius, Framebuffer<S>& image,
-                                  DropCounters& drops, const P& parallel_for) const {
+  /// render_iteration with an explicit merge radius (e.g. a schedule computed once, or a fixed
+  /// radius to measure kernel bias); bdpt ignores it.
+  template <ParallelFor P = SerialFor>
+  void render_iteration_at(const Scn& scene, std::uint64_t iteration, T radius, Framebuffer<S>& image,
+                           DropCounters& drops, const P& parallel_for = {}) const {
     const std::uint32_t pixels = scene.sensor().pixel_count();
     if (image.pixel_count() != pixels)
       throw std::invalid_argument("segpath::VertexConnectionMerging: the image has " +
                                   std::to_string(image.pixel_count()) + " pixels, the sensor " +
                                   std::to_string(pixels));
+    if (options_.mode == VcmMode::bdpt) radius = T(1);  // no merging: the radius enters no weight
     if (!(radius > T(0)) || !std::isfinite(radius))
       throw std::invalid_argument("segpath::VertexConnectionMerging: radius must be finite and > 0, got " +
                                   std::to_string(radius));
@@ -441,9 +457,9 @@ class VertexConnectionMerging {
       throw std::invalid_argument("segpath::VertexConnectionMerging: " + what);
     };
     if (o.max_length < 1) fail("max_length must be >= 1, got 0");
-    if (!(o.initial_radius > 0) || !std::isfinite(o.initial_radius) || !std::isfinite(T(o.initial_radius)) ||
-        !(T(o.initial_radius) > T(0)))
-      fail("initial_radius must be finite and > 0, got " + std::to_string(o.initial_radius));
+    if (!(o.initial_radius >= 0) || !std::isfinite(o.initial_radius) || !std::isfinite(T(o.initial_radius)) ||
+        (o.initial_radius > 0 && !(T(o.initial_radius) > T(0))))
+      fail("initial_radius must be finite and >= 0 (0: automatic), got " + std::to_string(o.initial_radius));
     if (!(o.alpha > 0 && o.alpha < 1)) fail("alpha must lie in (0, 1), got " + std::to_string(o.alpha));
     if (!(o.light_path_factor > 0) || !std::isfinite(o.light_path_factor))
       fail("light_path_factor must be finite and > 0, got " + std::to_string(o.light_path_factor));
@@ -724,7 +740,6 @@ class VertexConnectionMerging {
   }
 
   VcmOptions options_;
-  ProgressiveRadius<T> schedule_;
   SensorStartSampler<Scn> first_;
   NextSegmentSampler<Scn, DiracKernel<T>> next_{DiracKernel<T>{}};
   LightBridgeSampler<Scn, DiracKernel<T>> bridge_{DiracKernel<T>{}};

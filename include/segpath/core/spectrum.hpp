@@ -16,6 +16,9 @@ struct Rgb {
   constexpr Rgb() noexcept = default;
   constexpr explicit Rgb(T v) noexcept : r(v), g(v), b(v) {}
   constexpr Rgb(T r_, T g_, T b_) noexcept : r(r_), g(g_), b(b_) {}
+  /// The same colour in another precision.
+  template <Real U>
+  constexpr explicit Rgb(const Rgb<U>& o) noexcept : r(T(o.r)), g(T(o.g)), b(T(o.b)) {}
 
   constexpr Rgb& operator+=(const Rgb& o) noexcept { r += o.r; g += o.g; b += o.b; return *this; }
   constexpr Rgb& operator*=(const Rgb& o) noexcept { r *= o.r; g *= o.g; b *= o.b; return *this; }
@@ -48,6 +51,14 @@ template <Real T> [[nodiscard]] constexpr bool is_black(T v) noexcept { return v
 template <class S> struct spectrum_scalar { using type = S; };
 template <Real T> struct spectrum_scalar<Rgb<T>> { using type = T; };
 template <class S> using spectrum_scalar_t = typename spectrum_scalar<S>::type;
+
+/// The spectrum progressive images accumulate in: the same channels in double (Rgb<float> ->
+/// Rgb<double>, float -> double). For your own spectrum type it is the type itself unless you
+/// specialise it; it must be constructible from S (render/progressive.hpp).
+template <class S> struct accumulation_spectrum { using type = S; };
+template <> struct accumulation_spectrum<float> { using type = double; };
+template <Real T> struct accumulation_spectrum<Rgb<T>> { using type = Rgb<double>; };
+template <class S> using accumulation_spectrum_t = typename accumulation_spectrum<S>::type;
 
 /// What estimators need of a radiance or throughput value. Rgb<T> and the floating-point
 /// types model it.

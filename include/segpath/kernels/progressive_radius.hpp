@@ -8,6 +8,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -38,6 +39,24 @@ class ProgressiveRadius {
  private:
   T initial_;
   T alpha_;
+};
+
+/// The kernel size of each iteration of a progressive method (0-based iterations): none for
+/// the methods without a kernel (PT, LT, BDPT), else ProgressiveRadius's shrinking schedule
+/// (a disk radius for the VCM family, a voxel size for the filtering methods).
+template <Real T>
+class KernelSchedule {
+ public:
+  KernelSchedule() = default;  ///< no kernel
+  KernelSchedule(T initial, T alpha) : radius_(ProgressiveRadius<T>(initial, alpha)) {}
+  [[nodiscard]] bool has_kernel() const noexcept { return radius_.has_value(); }
+  /// The kernel of `iteration` (ProgressiveRadius's r_{iteration + 1}); 0 without a kernel.
+  [[nodiscard]] T at(std::uint64_t iteration) const noexcept { return radius_ ? radius_->radius(iteration + 1) : T(0); }
+  [[nodiscard]] T initial() const noexcept { return radius_ ? radius_->initial_radius() : T(0); }
+  [[nodiscard]] T alpha() const noexcept { return radius_ ? radius_->alpha() : T(0); }
+
+ private:
+  std::optional<ProgressiveRadius<T>> radius_;
 };
 
 }  // namespace segpath

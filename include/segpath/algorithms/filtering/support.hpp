@@ -8,6 +8,7 @@
 #include "segpath/propagation/clustering.hpp"
 #include "segpath/propagation/disk_junctions.hpp"
 #include "segpath/kernels/voxel.hpp"
+#include "segpath/sensors/pixel_footprint.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -44,25 +45,15 @@ void join(const Context<Scn>& ctx, typename Scn::Scalar radius, DiskJunctions<ty
   junctions.build(radius, std::span<const Segment<T>>(ctx.pool.segments), canonical_map(ctx.scene), T(0.5), parallel_for);
 }
 
-/// The voxel size of iteration 1 when the options leave it at 0: 4x the average pixel footprint
-/// (distance to the first hit times the side of a pixel's solid angle), from the pixel centres
-/// of every 7th pixel (deterministic and cheap).
+/// The voxel size of iteration 1 when the options leave it at 0, in average pixel footprints
+/// (sensors/pixel_footprint.hpp): the paper's 4.
+inline constexpr double cell_in_footprints = 4.0;
+
+/// The voxel size of iteration 1 when the options leave it at 0.
 template <LightSampledScene Scn>
 [[nodiscard]] typename Scn::Scalar pixel_footprint_cell(const Scn& scene) {
   using T = typename Scn::Scalar;
-  const auto& sensor = scene.sensor();
-  double sum = 0;
-  std::uint64_t count = 0;
-  for (std::uint32_t p = 0; p < sensor.pixel_count(); p += 7) {
-    const auto ray = sensor.sample_ray(SensorSampleQuery<T>{p, Vec2<T>(T(0.5)), Vec2<T>(T(0.5))});
-    if (!ray || !(ray->pdf_direction > T(0))) continue;
-    const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{ray->origin.position, ray->direction}});
-    if (!hit) continue;
-    sum += double(hit->distance) / std::sqrt(double(ray->pdf_direction));
-    ++count;
-  }
-  if (count == 0) return T(1e-2);
-  return T(4.0 * sum / double(count));
+  return T(cell_in_footprints) * pixel_footprint(scene, T(2.5e-3));
 }
 
 /// The voxel grid of an iteration: jittered from the iteration's own stream, or aligned.
