@@ -10,6 +10,8 @@ packages=(
   libbenchmark-dev          # benchmarks
   libembree-dev libtbb-dev libtinyobjloader-dev libstb-dev libtinyexr-dev libcli11-dev  # examples
   python3-matplotlib        # plots of benchmark results
+  clang-14 libclang-rt-14-dev  # the libFuzzer harnesses (fuzz/)
+  doxygen                   # the API reference (target segpath_api_docs)
 )
 
 missing=()
