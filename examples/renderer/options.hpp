@@ -22,6 +22,7 @@
 #include <cmath>
 #include <cstdint>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <utility>
@@ -174,6 +175,13 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
     return {std::nullopt, 0, app.help()};
   } catch (const CLI::ParseError& e) {
     return {std::nullopt, 2, std::string("segpath-render: ") + e.what() + " (see --help)\n"};
+  } catch (const std::out_of_range&) {
+    // CLI11's own conversions may throw the standard library's errors: a flag's value too large
+    // for an integer (--no-next-event=8888888888888888888888, found by fuzz/options_fuzzer.cpp)
+    // ends in std::stoll's std::out_of_range.
+    return {std::nullopt, 2, "segpath-render: a number on the command line is out of range (see --help)\n"};
+  } catch (const std::exception& e) {
+    return {std::nullopt, 2, std::string("segpath-render: cannot read the command line: ") + e.what() + " (see --help)\n"};
   }
   return {std::move(o), 0, {}};
 }
