@@ -7,8 +7,10 @@
 // prints BDPF's mean with and without the extra technique next to it, at two voxel sizes. Usage:
 //   segpath-custom-technique [ITERATIONS]
 #include <segpath/algorithms/segment_filtering.hpp>
+#include <segpath/render/progressive.hpp>
 #include <segpath/testing/sphere_interior.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -21,17 +23,19 @@ namespace {
 using Scene = segpath::testing::PhotographedSphereInterior<double>;
 using Cosine = example::CosineSurfaceSampler<Scene>;
 
-/// The mean over pixels and iterations, and its standard error (iterations are independent).
+/// The mean over pixels and iterations, and its standard error (iterations are independent), of
+/// `iterations` iterations through the render protocol at a fixed voxel size.
 template <class Method>
 std::pair<double, double> image_mean(const Method& method, const Scene& scene, std::uint64_t iterations, double cell) {
-  double sum = 0, sum2 = 0;
-  segpath::DropCounters drops;
+  segpath::ProgressiveRender render(scene, method, scene.sensor().width(), scene.sensor().height(),
+                                    segpath::KernelSchedule<double>::fixed(cell));
+  double sum = 0, sum2 = 0, before = 0;  // before: the pixel sum after the previous iteration
   for (std::uint64_t i = 0; i < iterations; ++i) {
-    segpath::Framebuffer<double> image(scene.sensor().width(), scene.sensor().height());
-    method.render_iteration_at(scene, i, cell, image, drops);
-    double mean = 0;
-    for (const double v : image.pixels()) mean += v;
-    mean /= double(image.pixel_count());
+    render.iterate();
+    double total = 0;
+    for (const double v : render.sum().pixels()) total += v;
+    const double mean = (total - before) / double(render.sum().pixel_count());
+    before = total;
     sum += mean, sum2 += mean * mean;
   }
   const double n = double(iterations), mean = sum / n;

@@ -113,6 +113,27 @@ TEST_CASE("kernel methods get an automatic kernel from the pixel footprint, shri
   CHECK_FALSE(ProgressiveRender(scene, PathTracer<Sphere>(), 6, 6).kernel_schedule().has_kernel());
 }
 
+TEST_CASE("a render with a fixed kernel renders every iteration at that size", "[render]") {
+  const Sphere scene = make_sphere();
+  FilteringOptions<float> f;
+  f.max_length = 4;
+  const SegmentFiltering<Sphere> bdpf(f);
+  ProgressiveRender render(scene, bdpf, 6, 6, KernelSchedule<float>::fixed(0.3f));
+  CHECK(render.kernel_schedule().at(5) == 0.3f);
+  render.iterate();
+  render.iterate();
+  std::vector<double> expected(36, 0.0);
+  for (std::uint64_t i = 0; i < 2; ++i) {
+    Framebuffer<float> image(6, 6);
+    DropCounters drops;
+    bdpf.render_iteration_at(scene, i, 0.3f, image, drops);
+    for (std::uint32_t p = 0; p < 36; ++p) expected[p] += double(image[p]);
+  }
+  for (std::uint32_t p = 0; p < 36; ++p) CHECK(render.sum()[p] == expected[p]);
+  CHECK_THROWS_AS(KernelSchedule<float>::fixed(0.0f), std::invalid_argument);
+  CHECK_THROWS_AS(ProgressiveRender(scene, bdpf, 6, 6, KernelSchedule<float>{}), std::invalid_argument);
+}
+
 TEST_CASE("the render protocol's image does not depend on the ParallelFor", "[render]") {
   const Sphere scene = make_sphere();
   ProgressiveRender serial(scene, SegmentFiltering<Sphere>(FilteringOptions<float>{}), 6, 6);

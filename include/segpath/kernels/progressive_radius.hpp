@@ -8,7 +8,6 @@
 
 #include <cmath>
 #include <cstdint>
-#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -42,21 +41,37 @@ class ProgressiveRadius {
 };
 
 /// The kernel size of each iteration of a progressive method (0-based iterations): none for
-/// the methods without a kernel (PT, LT, BDPT), else ProgressiveRadius's shrinking schedule
-/// (a disk radius for the VCM family, a voxel size for the filtering methods).
+/// the methods without a kernel (PT, LT, BDPT), ProgressiveRadius's shrinking schedule (a disk
+/// radius for the VCM family, a voxel size for the filtering methods), or a fixed size (to
+/// measure a kernel's bias at that size).
 template <Real T>
 class KernelSchedule {
  public:
   KernelSchedule() = default;  ///< no kernel
-  KernelSchedule(T initial, T alpha) : radius_(ProgressiveRadius<T>(initial, alpha)) {}
-  [[nodiscard]] bool has_kernel() const noexcept { return radius_.has_value(); }
+  /// ProgressiveRadius(initial, alpha): `initial` > 0 and finite, `alpha` in (0, 1).
+  KernelSchedule(T initial, T alpha) : initial_(ProgressiveRadius<T>(initial, alpha).initial_radius()), alpha_(alpha) {}
+  /// The same `size` (> 0, finite) in every iteration.
+  [[nodiscard]] static KernelSchedule fixed(T size) {
+    if (!(size > T(0)) || !std::isfinite(size))
+      throw std::invalid_argument("segpath::KernelSchedule: a fixed kernel size must be finite and > 0, got " +
+                                  std::to_string(size));
+    KernelSchedule k;
+    k.initial_ = size;
+    k.alpha_ = T(1);
+    return k;
+  }
+  [[nodiscard]] bool has_kernel() const noexcept { return initial_ > T(0); }
   /// The kernel of `iteration` (ProgressiveRadius's r_{iteration + 1}); 0 without a kernel.
-  [[nodiscard]] T at(std::uint64_t iteration) const noexcept { return radius_ ? radius_->radius(iteration + 1) : T(0); }
-  [[nodiscard]] T initial() const noexcept { return radius_ ? radius_->initial_radius() : T(0); }
-  [[nodiscard]] T alpha() const noexcept { return radius_ ? radius_->alpha() : T(0); }
+  [[nodiscard]] T at(std::uint64_t iteration) const noexcept {
+    if (!has_kernel() || alpha_ == T(1)) return initial_;
+    return ProgressiveRadius<T>(initial_, alpha_).radius(iteration + 1);
+  }
+  [[nodiscard]] T initial() const noexcept { return initial_; }
+  /// The shrinking factor: in (0, 1), 1 for a fixed size, 0 without a kernel.
+  [[nodiscard]] T alpha() const noexcept { return alpha_; }
 
  private:
-  std::optional<ProgressiveRadius<T>> radius_;
+  T initial_ = 0, alpha_ = 0;
 };
 
 }  // namespace segpath

@@ -2,8 +2,8 @@
 // BDPF, and a user's own. Iterations are numbered from 0; each is rendered into an image of its
 // own (given iteration i, the same pixels whatever the ParallelFor) and added to a sum kept in
 // double; the estimate is the mean over the iterations. A kernel method's schedule (its
-// options' initial size, or the automatic one in pixel footprints, sensors/pixel_footprint.hpp)
-// is computed once, when the render is made.
+// options' initial size, or the automatic one in pixel footprints, sensors/pixel_footprint.hpp,
+// or one the caller gives) is computed once, when the render is made.
 #pragma once
 
 #include "segpath/concepts/scene.hpp"
@@ -63,6 +63,16 @@ class ProgressiveRender {
       throw std::invalid_argument("segpath::ProgressiveRender: " + std::to_string(width) + " x " + std::to_string(height) +
                                   " pixels, but the sensor has " + std::to_string(scene.sensor().pixel_count()));
     if constexpr (KernelMethod<M, Scn>) schedule_ = method_.kernel_schedule(scene);
+  }
+
+  /// A kernel method's render with a schedule of the caller's (e.g. KernelSchedule::fixed, to
+  /// measure the kernel's bias at one size) instead of the method's own.
+  ProgressiveRender(const Scn& scene, M method, std::uint32_t width, std::uint32_t height, KernelSchedule<T> schedule)
+    requires KernelMethod<M, Scn>
+      : ProgressiveRender(scene, std::move(method), width, height) {
+    if (!schedule.has_kernel())
+      throw std::invalid_argument("segpath::ProgressiveRender: a kernel method needs a kernel schedule");
+    schedule_ = schedule;
   }
 
   [[nodiscard]] const M& method() const noexcept { return method_; }
