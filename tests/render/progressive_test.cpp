@@ -1,7 +1,7 @@
 // The render protocol (render/progressive.hpp): the image is the mean of the method's own
 // iterations, numbered from 0, accumulated in double; a kernel method's automatic schedule is
 // the pixel footprint's multiple and shrinks per iteration; the image does not depend on the
-// ParallelFor; a non-finite pixel is dropped and counted; PT and LT through the protocol agree
+// ParallelFor; iterations rendered apart and added in index order, or resumed, give the same sum; a non-finite pixel is dropped and counted; PT and LT through the protocol agree
 // with the furnace's closed form.
 #include <segpath/algorithms/light_tracer.hpp>
 #include <segpath/algorithms/path_tracer.hpp>
@@ -162,6 +162,50 @@ TEST_CASE("the render protocol drops and counts a non-finite pixel, and checks t
   CHECK(render.pixel(0) == Approx((0.0 + 2.0) / 3));
   CHECK(render.pixel(5) == Approx((0.0 + 1.0 + 2.0) / 3));
   CHECK_THROWS_AS(ProgressiveRender(scene, Faulty{}, 6, 5), std::invalid_argument);
+}
+
+TEST_CASE("iterations rendered apart and added in index order, or a resumed render, equal iterate() bit for bit",
+          "[render]") {
+  const Sphere scene = make_sphere();
+  VcmOptions v;  // a kernel method: each iteration must be rendered at its own scheduled radius
+  v.max_length = 5;
+  v.seed = 3;
+  const VertexConnectionMerging<Sphere> vcm(v);
+  ProgressiveRender whole(scene, vcm, 6, 6);
+  for (int i = 0; i < 5; ++i) whole.iterate();
+
+  // Two "ranks" render iterations 0..4 in another order; the root adds them in index order.
+  ProgressiveRender root(scene, vcm, 6, 6), other(scene, vcm, 6, 6);
+  std::vector<Framebuffer<float>> images(5, Framebuffer<float>(6, 6));
+  for (std::uint64_t i : {4u, 1u, 3u}) {
+    other.render(i);
+    images[i] = other.iteration_image();
+  }
+  for (std::uint64_t i : {2u, 0u}) {
+    root.render(i);
+    images[i] = root.iteration_image();
+  }
+  for (const auto& image : images) root.accumulate(image);
+  CHECK(root.iterations() == 5);
+
+  // A render stopped after 2 iterations, saved and resumed by another object.
+  ProgressiveRender first(scene, vcm, 6, 6);
+  first.iterate();
+  first.iterate();
+  ProgressiveRender resumed(scene, vcm, 6, 6);
+  resumed.resume(first.sum(), first.iterations(), first.drops());
+  for (int i = 0; i < 3; ++i) resumed.iterate();
+  CHECK(resumed.iterations() == 5);
+
+  double total = 0;
+  for (std::uint32_t p = 0; p < 36; ++p) {
+    CHECK(root.sum()[p] == whole.sum()[p]);
+    CHECK(resumed.sum()[p] == whole.sum()[p]);
+    total += whole.sum()[p];
+  }
+  CHECK(total > 0);
+  CHECK_THROWS_AS(root.accumulate(Framebuffer<float>(6, 5)), std::invalid_argument);
+  CHECK_THROWS_AS(resumed.resume(Framebuffer<double>(5, 6), 1, {}), std::invalid_argument);
 }
 
 // PT and LT through the protocol (LT's image is its splats over N light paths) against the

@@ -29,6 +29,7 @@ class Framebuffer {
   [[nodiscard]] const S& operator[](std::uint32_t pixel) const noexcept { return pixels_[pixel]; }
   [[nodiscard]] S& operator[](std::uint32_t pixel) noexcept { return pixels_[pixel]; }
   [[nodiscard]] std::span<const S> pixels() const noexcept { return pixels_; }
+  [[nodiscard]] std::span<S> pixels() noexcept { return pixels_; }
   void add(std::uint32_t pixel, const S& value) noexcept { pixels_[pixel] += value; }
   void clear() noexcept { std::fill(pixels_.begin(), pixels_.end(), S(spectrum_scalar_t<S>(0))); }
   Framebuffer& operator+=(const Framebuffer& other) {

@@ -4,6 +4,11 @@
 // double; the estimate is the mean over the iterations. A kernel method's schedule (its
 // options' initial size, or the automatic one in pixel footprints, sensors/pixel_footprint.hpp,
 // or one the caller gives) is computed once, when the render is made.
+//
+// Iterations are independent given their index, so a render can be split: render(i) computes
+// iteration i anywhere (another thread, process or machine), accumulate() adds iteration images
+// in index order, and the sum is then bit for bit the one iterate() gives; resume() continues a
+// render from a saved sum (examples/renderer: MPI ranks and checkpoints).
 #pragma once
 
 #include "segpath/concepts/scene.hpp"
@@ -90,16 +95,58 @@ class ProgressiveRender {
   /// render_iteration returns (SegmentFiltering: the iteration's FilteringStats).
   template <ParallelFor P = SerialFor>
   decltype(auto) iterate(const P& parallel_for = {}) {
-    iteration_image_.clear();
-    using Result = decltype(render(parallel_for));
+    using Result = decltype(render(iterations_, parallel_for));
     if constexpr (std::is_void_v<Result>) {
-      render(parallel_for);
-      accumulate();
+      render(iterations_, parallel_for);
+      accumulate(iteration_image_);
     } else {
-      Result result = render(parallel_for);
-      accumulate();
+      Result result = render(iterations_, parallel_for);
+      accumulate(iteration_image_);
       return result;
     }
+  }
+
+  /// Renders iteration `iteration` (any index, at its scheduled kernel size) into
+  /// iteration_image() without adding it to the sum; the samples it drops are counted in
+  /// drops(). Returns what the method's render_iteration returns.
+  template <ParallelFor P = SerialFor>
+  decltype(auto) render(std::uint64_t iteration, const P& parallel_for = {}) {
+    iteration_image_.clear();
+    if constexpr (KernelMethod<M, Scn>) {
+      if (schedule_.has_kernel())
+        return method_.render_iteration_at(*scene_, iteration, schedule_.at(iteration), iteration_image_, drops_,
+                                           parallel_for);
+    }
+    return method_.render_iteration(*scene_, iteration, iteration_image_, drops_, parallel_for);
+  }
+  /// The image of the last render() (iteration's estimate of every pixel, not yet averaged).
+  [[nodiscard]] const Framebuffer<S>& iteration_image() const noexcept { return iteration_image_; }
+
+  /// Adds `image`, the estimate of iteration iterations() (from render() here or elsewhere), to
+  /// the sum: a non-finite pixel is dropped and counted. Adding the iterations in index order
+  /// gives the same sum, bit for bit, wherever they were rendered.
+  void accumulate(const Framebuffer<S>& image) {
+    if (image.pixel_count() != sum_.pixel_count())
+      throw std::invalid_argument("segpath::ProgressiveRender::accumulate: " + std::to_string(image.pixel_count()) +
+                                  " pixels, the render has " + std::to_string(sum_.pixel_count()));
+    for (std::uint32_t p = 0; p < sum_.pixel_count(); ++p) {
+      const Accumulated v(image[p]);
+      if (is_finite(v)) sum_.add(p, v);
+      else drops_.add(DropReason::non_finite);
+    }
+    ++iterations_;
+  }
+
+  /// Continues a render saved after `iterations` iterations: its sum and drop counters (e.g.
+  /// read from a checkpoint). The next iterate() renders iteration `iterations`.
+  void resume(Framebuffer<Accumulated> sum, std::uint64_t iterations, const DropCounters& drops) {
+    if (sum.width() != sum_.width() || sum.height() != sum_.height())
+      throw std::invalid_argument("segpath::ProgressiveRender::resume: a " + std::to_string(sum.width()) + " x " +
+                                  std::to_string(sum.height()) + " sum, the render is " + std::to_string(sum_.width()) +
+                                  " x " + std::to_string(sum_.height()));
+    sum_ = std::move(sum);
+    iterations_ = iterations;
+    drops_ = drops;
   }
 
   /// The estimate of pixel p: the mean of its iterations (black before the first).
@@ -116,24 +163,6 @@ class ProgressiveRender {
   [[nodiscard]] const Framebuffer<Accumulated>& sum() const noexcept { return sum_; }
 
  private:
-  template <ParallelFor P>
-  decltype(auto) render(const P& parallel_for) {
-    if constexpr (KernelMethod<M, Scn>) {
-      if (schedule_.has_kernel())
-        return method_.render_iteration_at(*scene_, iterations_, schedule_.at(iterations_), iteration_image_, drops_,
-                                           parallel_for);
-    }
-    return method_.render_iteration(*scene_, iterations_, iteration_image_, drops_, parallel_for);
-  }
-  void accumulate() {
-    for (std::uint32_t p = 0; p < sum_.pixel_count(); ++p) {
-      const Accumulated v(iteration_image_[p]);
-      if (is_finite(v)) sum_.add(p, v);
-      else drops_.add(DropReason::non_finite);
-    }
-    ++iterations_;
-  }
-
   const Scn* scene_;
   M method_;
   KernelSchedule<T> schedule_;
