@@ -11,6 +11,7 @@ packages=(
   libembree-dev libtbb-dev libtinyobjloader-dev libstb-dev libtinyexr-dev libcli11-dev  # examples
   python3-matplotlib        # plots of benchmark results
   clang-14 libclang-rt-14-dev  # the libFuzzer harnesses (fuzz/)
+  libopenmpi-dev openmpi-bin  # segpath-render on MPI ranks (mpirun), and its tests
   doxygen                   # the API reference (target segpath_api_docs)
 )
 

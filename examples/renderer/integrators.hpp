@@ -69,14 +69,6 @@ struct MethodOptions {
 
 namespace detail {
 
-[[nodiscard]] inline segpath::Rgb<double> to_double(const Color& c) noexcept {
-  return {double(c.r), double(c.g), double(c.b)};
-}
-
-}  // namespace detail
-
-namespace detail {
-
 /// The process's ray count, kept per thread without synchronisation on the hot path: each
 /// thread increments a counter of its own (registered at its first ray, retired at its exit);
 /// total() sums them. (oneTBB's enumerable_thread_specific cost PT 3.5 % in its lookup.)
@@ -180,20 +172,24 @@ namespace detail {
 template <class Library>
 class MethodRun {
  public:
+  /// One iteration's image (not yet averaged), as render() leaves it and accumulate() takes it.
+  using IterationImage = segpath::Framebuffer<Color>;
+
   explicit MethodRun(Library method) : method_(std::move(method)) {}
 
   /// Renders the next iteration of `scene` (the same scene at every call: the first starts the
-  /// render at its sensor's size) and adds rays, paths and drops to `stats`; returns what the
-  /// method's iteration returns (SegmentFiltering: FilteringStats).
+  /// render at its sensor's size), adds it to the sum and adds rays, paths and drops to `stats`;
+  /// returns what the method's iteration returns (SegmentFiltering: FilteringStats).
   template <segpath::ParallelFor P>
   decltype(auto) iterate(const RenderScene& scene, Stats& stats, const P& parallel) {
-    if (!render_) {
-      counting_ = std::make_unique<ThreadCountingScene>(scene);
-      render_.emplace(*counting_, std::move(*method_), scene.sensor().width(), scene.sensor().height());
-      method_.reset();
-    } else if (&counting_->scene() != &scene) {
-      throw std::logic_error("renderer::MethodRun: a render continues on the scene it started on");
-    }
+    return render_and_accumulate(*this, scene, stats, parallel);
+  }
+
+  /// Renders iteration `iteration` into iteration_image() without adding it to the sum (a rank
+  /// of a distributed render); adds its rays, paths and drops to `stats`.
+  template <segpath::ParallelFor P>
+  decltype(auto) render(const RenderScene& scene, std::uint64_t iteration, Stats& stats, const P& parallel) {
+    start(scene);
     const segpath::DropCounters before = render_->drops();
     (void)counting_->take_rays();
     const auto finish = [&] {
@@ -201,26 +197,70 @@ class MethodRun {
       stats.paths += render_->width() * std::uint64_t(render_->height());
       stats.dropped += detail::drops_since(render_->drops(), before);
     };
-    if constexpr (std::is_void_v<decltype(render_->iterate(parallel))>) {
-      render_->iterate(parallel);
+    if constexpr (std::is_void_v<decltype(render_->render(iteration, parallel))>) {
+      render_->render(iteration, parallel);
       finish();
     } else {
-      auto result = render_->iterate(parallel);
+      auto result = render_->render(iteration, parallel);
       finish();
       return result;
     }
   }
-  /// The sum of the iterations rendered so far (empty before the first).
-  [[nodiscard]] const Accumulator& sum() const {
-    if (!render_) throw std::logic_error("renderer::MethodRun: no iteration rendered yet");
-    return render_->sum();
+  /// The image of the last render().
+  [[nodiscard]] const IterationImage& iteration_image() const { return started().iteration_image(); }
+  /// Adds `image`, iteration iterations() rendered here or by another rank, to the sum (a
+  /// non-finite pixel is dropped and counted in `stats`).
+  void accumulate(const RenderScene& scene, const IterationImage& image, Stats& stats) {
+    start(scene);
+    const segpath::DropCounters before = render_->drops();
+    render_->accumulate(image);
+    stats.dropped += detail::drops_since(render_->drops(), before);
   }
+  /// Continues a render saved after `iterations` iterations with this sum (a checkpoint).
+  void resume(const RenderScene& scene, Accumulator sum, std::uint64_t iterations) {
+    start(scene);
+    render_->resume(std::move(sum), iterations, render_->drops());
+  }
+
+  /// The sum of the iterations rendered so far (empty before the first).
+  [[nodiscard]] const Accumulator& sum() const { return started().sum(); }
   [[nodiscard]] std::uint64_t iterations() const noexcept { return render_ ? render_->iterations() : 0; }
 
+ protected:
+  /// iterate() of a method class M derived from MethodRun: M's own render() (which may do more,
+  /// e.g. keep FilteringStats), then accumulate().
+  template <class M, segpath::ParallelFor P>
+  static decltype(auto) render_and_accumulate(M& method, const RenderScene& scene, Stats& stats, const P& parallel) {
+    const std::uint64_t iteration = method.iterations();
+    if constexpr (std::is_void_v<decltype(method.render(scene, iteration, stats, parallel))>) {
+      method.render(scene, iteration, stats, parallel);
+      method.accumulate(scene, method.iteration_image(), stats);
+    } else {
+      auto result = method.render(scene, iteration, stats, parallel);
+      method.accumulate(scene, method.iteration_image(), stats);
+      return result;
+    }
+  }
+
  private:
+  void start(const RenderScene& scene) {
+    if (!render_) {
+      counting_ = std::make_unique<ThreadCountingScene>(scene);
+      render_ = std::make_unique<segpath::ProgressiveRender<ThreadCountingScene, Library>>(
+          *counting_, std::move(*method_), scene.sensor().width(), scene.sensor().height());
+      method_.reset();
+    } else if (&counting_->scene() != &scene) {
+      throw std::logic_error("renderer::MethodRun: a render continues on the scene it started on");
+    }
+  }
+  [[nodiscard]] const auto& started() const {
+    if (!render_) throw std::logic_error("renderer::MethodRun: no iteration rendered yet");
+    return *render_;
+  }
+
   std::optional<Library> method_;
   std::unique_ptr<ThreadCountingScene> counting_;  // ProgressiveRender keeps its address
-  std::optional<segpath::ProgressiveRender<ThreadCountingScene, Library>> render_;
+  std::unique_ptr<segpath::ProgressiveRender<ThreadCountingScene, Library>> render_;
 };
 
 /// Path tracing with next-event estimation (segpath::PathTracer::render_iteration): one path
@@ -297,13 +337,16 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
   explicit FilteringMethod(const MethodOptions& o)
       : MethodRun(segpath::SegmentFiltering<ThreadCountingScene>(filtering_options(o))), print_stats_(o.print_stats) {}
 
-  /// MethodRun::iterate, keeping (and with --stats printing) the iteration's FilteringStats.
+  /// MethodRun::render, keeping (and with --stats printing) the iteration's FilteringStats.
   template <segpath::ParallelFor P>
-  void iterate(const RenderScene& scene, Stats& stats, const P& parallel) {
-    const std::uint64_t iteration = iterations();
-    const segpath::FilteringStats f = MethodRun::iterate(scene, stats, parallel);
+  void render(const RenderScene& scene, std::uint64_t iteration, Stats& stats, const P& parallel) {
+    const segpath::FilteringStats f = MethodRun::render(scene, iteration, stats, parallel);
     if (print_stats_) print(iteration, f);
     last_stats_ = f;
+  }
+  template <segpath::ParallelFor P>
+  void iterate(const RenderScene& scene, Stats& stats, const P& parallel) {
+    render_and_accumulate(*this, scene, stats, parallel);
   }
 
   /// The last iteration's counters (segments, bytes per segment, transfer cache), if any.

@@ -1,10 +1,18 @@
 // segpath-render: renders the four SmallVCM Cornell boxes (or an OBJ scene) with one of
 // segpath's methods, for a number of iterations or a time budget, and writes EXR/PFM/PNG
 // images; optionally reports RMSE and relMSE against a reference. `segpath-render --help`.
+//
+// Started by mpirun (a build with MPI), its ranks split the iterations: in each round rank r
+// renders iteration next + r with its own threads and sends the image to rank 0, which adds the
+// round's images in iteration order, so the image is bit for bit the one-process image for any
+// rank and thread count. With --checkpoint, rank 0 saves the sum and the next iteration index
+// (checkpoint.hpp); --resume continues it to the same final image.
+#include "checkpoint.hpp"
 #include "cornell.hpp"
 #include "image_io.hpp"
 #include "integrators.hpp"
 #include "options.hpp"
+#include "ranks.hpp"
 #include "tbb_parallel.hpp"
 
 #include <tbb/global_control.h>
@@ -14,6 +22,8 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <span>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -34,20 +44,26 @@ using renderer::Options;
 using renderer::joined;
 using renderer::ends_with_obj;
 
+/// Checks that `path`'s directory exists and is writable (`option` names it in the error).
+void check_directory(const std::string& option, const std::string& path) {
+  std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  if (parent.empty()) parent = ".";
+  std::error_code ec;
+  if (!std::filesystem::is_directory(parent, ec))
+    throw std::runtime_error(option + " " + path + ": directory " + parent.string() + " does not exist");
+  if (::access(parent.c_str(), W_OK) != 0)
+    throw std::runtime_error(option + " " + path + ": directory " + parent.string() + " is not writable");
+}
+
 /// Checks up front that every output can be written (known extension, existing directory),
 /// so a long render is not lost at the end.
 void check_outputs(const Options& o) {
   for (const auto& path : o.out) {
     if (!renderer::writable_format(path))
       throw std::runtime_error("--out " + path + ": unknown image format (use .exr, .pfm or .png)");
-    std::filesystem::path parent = std::filesystem::path(path).parent_path();
-    if (parent.empty()) parent = ".";
-    std::error_code ec;
-    if (!std::filesystem::is_directory(parent, ec))
-      throw std::runtime_error("--out " + path + ": directory " + parent.string() + " does not exist");
-    if (::access(parent.c_str(), W_OK) != 0)
-      throw std::runtime_error("--out " + path + ": directory " + parent.string() + " is not writable");
+    check_directory("--out", path);
   }
+  if (o.checkpoint) check_directory("--checkpoint", *o.checkpoint);
 }
 
 renderer::RenderScene load_scene(const Options& o) {
@@ -162,65 +178,201 @@ class Progress {
   Clock::time_point last_{};
 };
 
-int run(const Options& o) {
-  check_outputs(o);
-  std::optional<examples::Image> reference;
-  if (o.reference) {
-    if (!renderer::readable_format(*o.reference))
-      throw std::runtime_error("--reference " + *o.reference + ": use a .pfm or .exr image");
-    reference = renderer::read_image(*o.reference);
-    if (reference->width != int(o.width) || reference->height != int(o.height))
-      throw std::runtime_error("--reference " + *o.reference + " is " + std::to_string(reference->width) + "x" +
-                               std::to_string(reference->height) + ", the render is " + std::to_string(o.width) + "x" +
-                               std::to_string(o.height));
+/// Runs one stage of the set-up on every rank. When it throws on any rank, every rank learns it
+/// and returns false together (none waits for another forever): rank 0 prints its error, or
+/// when rank 0 succeeded, each failing rank prints its own. `stage` must make no MPI call.
+template <class Stage>
+bool on_every_rank(const renderer::Ranks& ranks, Stage&& stage) {
+  std::optional<std::string> error;
+  try {
+    stage();
+  } catch (const std::exception& e) {
+    error = e.what();
   }
-  const renderer::MethodOptions mo = renderer::method_options(o);
-  auto method = renderer::make_method(o.method, mo);
-  if (!method) throw std::runtime_error("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
-  const renderer::RenderScene scene = load_scene(o);
+  if (ranks.all(!error)) return true;
+  const bool root_failed = ranks.broadcast(ranks.root() && error) != 0;
+  if (error && (ranks.root() || !root_failed)) {
+    const std::string who = ranks.root() ? "" : " (rank " + std::to_string(ranks.rank()) + ")";
+    std::fprintf(stderr, "segpath-render%s: error: %s\n", who.c_str(), error->c_str());
+  }
+  return false;
+}
+
+/// A stage's error (on_every_rank prints it).
+[[noreturn]] void fail(const std::string& message) { throw std::runtime_error(message); }
+
+/// Stats as the counters sent between ranks: paths, rays, then the drops by reason.
+constexpr std::size_t stats_words = 2 + segpath::drop_reason_count;
+std::array<std::uint64_t, stats_words> stats_words_of(const renderer::Stats& s) {
+  std::array<std::uint64_t, stats_words> w{s.paths, s.rays};
+  std::copy(s.dropped.counts.begin(), s.dropped.counts.end(), w.begin() + 2);
+  return w;
+}
+renderer::Stats stats_of(const std::array<std::uint64_t, stats_words>& w) {
+  renderer::Stats s;
+  s.paths = w[0];
+  s.rays = w[1];
+  std::copy(w.begin() + 2, w.end(), s.dropped.counts.begin());
+  return s;
+}
+
+int run(const Options& o, const renderer::Ranks& ranks) {
+  const bool root = ranks.root();
+  const std::string image_options = renderer::image_options(o);
+
+  // Every rank must render the same image: compare a hash of the options that decide it.
   {
-    tbb::global_control pilot_threads(tbb::global_control::max_allowed_parallelism, o.threads);
-    const std::uint64_t estimate = estimated_peak_bytes(o, mo);
-    // In double: a tiny --memory-limit must not round to 0 ("unknown"), a huge one not overflow.
-    const double limit = o.memory_limit_gb ? *o.memory_limit_gb * 1e9 : double(available_bytes());
-    const bool filtering = o.method == "mvf" || o.method == "phf" || o.method == "bdpf";
-    if (limit > 0 && double(estimate) > limit)
-      throw std::runtime_error("this render needs about " + memory_size(estimate) + ", more than " +
-                               (o.memory_limit_gb ? "--memory-limit" : "the memory available") + " (" + memory_size(std::uint64_t(std::min(limit, 1e19))) +
-                               "); lower it with " + (filtering ? "--transfer-cache, --beta or " : "") + "--width/--height");
-    if (o.stats) std::fprintf(stderr, "segpath-render: estimated peak memory %s\n", memory_size(estimate).c_str());
+    char count[48];
+    std::snprintf(count, sizeof count, o.time ? "time=%.17g\n" : "spp=%.0f\n", o.time ? *o.time : double(o.spp));
+    const std::string options = image_options + count;
+    const int other = ranks.first_differing(renderer::detail::fnv1a(options));
+    const std::string theirs = other < 0 ? std::string() : ranks.text_of(other, options);
+    if (!on_every_rank(ranks, [&] {
+          if (other >= 0 && root)
+            fail("rank " + std::to_string(other) + " was started with other options than rank 0 (" +
+                 renderer::first_difference(options, theirs, "rank 0", "rank " + std::to_string(other)) +
+                 "); start every rank with the same command line");
+          if (other >= 0) fail("");
+        }))
+      return 1;
   }
-  if (const auto family = renderer::unsampled_family(o.method, scene))
-    std::fprintf(stderr, "segpath-render: warning: %s\n", family->c_str());
+
+  // Rank 0's inputs and outputs: the images it will write, the reference, the checkpoint.
+  std::optional<examples::Image> reference;
+  std::optional<renderer::Checkpoint> resumed;
+  if (!on_every_rank(ranks, [&] {
+        if (!root) return;
+        check_outputs(o);
+        if (o.reference) {
+          if (!renderer::readable_format(*o.reference))
+            fail("--reference " + *o.reference + ": use a .pfm or .exr image");
+          reference = renderer::read_image(*o.reference);
+          if (reference->width != int(o.width) || reference->height != int(o.height))
+            fail("--reference " + *o.reference + " is " + std::to_string(reference->width) + "x" +
+                 std::to_string(reference->height) + ", the render is " + std::to_string(o.width) + "x" +
+                 std::to_string(o.height));
+        }
+        if (o.resume) {
+          resumed = renderer::read_checkpoint(*o.resume);
+          if (const std::string d = renderer::first_difference(resumed->options, image_options, "the checkpoint", "this render");
+              !d.empty())
+            fail("--resume " + *o.resume + ": written by a render with other options (" + d + ")");
+          if (!o.time && resumed->iterations > o.spp)
+            fail("--resume " + *o.resume + ": it holds " + std::to_string(resumed->iterations) +
+                 " iterations, more than --spp " + std::to_string(o.spp));
+        }
+      }))
+    return 1;
+  const std::uint64_t first = ranks.broadcast(resumed ? resumed->iterations : 0);
+  const std::uint64_t size = std::uint64_t(ranks.size());
+
+  // Every rank's own set-up: its scene, its method and the memory its machine has.
+  const renderer::MethodOptions mo = renderer::method_options(o);
+  std::optional<renderer::Method> method;
+  std::optional<renderer::RenderScene> scene;
+  if (!on_every_rank(ranks, [&] {
+        if (!o.time && first < o.spp && size > o.spp - first)
+          fail(std::to_string(size) + " ranks for " + std::to_string(o.spp - first) +
+               " iterations: every rank renders whole iterations; start at most " + std::to_string(o.spp - first) +
+               " ranks or raise --spp");
+        method = renderer::make_method(o.method, mo);
+        if (!method) fail("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
+        scene.emplace(load_scene(o));
+        tbb::global_control pilot_threads(tbb::global_control::max_allowed_parallelism, o.threads);
+        const std::uint64_t estimate = estimated_peak_bytes(o, mo);
+        // In double: a tiny --memory-limit must not round to 0 ("unknown"), a huge one not overflow.
+        const double limit = o.memory_limit_gb ? *o.memory_limit_gb * 1e9 : double(available_bytes());
+        const bool filtering = o.method == "mvf" || o.method == "phf" || o.method == "bdpf";
+        if (limit > 0 && double(estimate) > limit)
+          fail("this render needs about " + memory_size(estimate) + ", more than " +
+               (o.memory_limit_gb ? "--memory-limit" : "the memory available") + " (" +
+               memory_size(std::uint64_t(std::min(limit, 1e19))) + "); lower it with " +
+               (filtering ? "--transfer-cache, --beta or " : "") + "--width/--height");
+        if (o.stats && root) std::fprintf(stderr, "segpath-render: estimated peak memory %s\n", memory_size(estimate).c_str());
+      }))
+    return 1;
+  if (root)
+    if (const auto family = renderer::unsampled_family(o.method, *scene))
+      std::fprintf(stderr, "segpath-render: warning: %s\n", family->c_str());
+
+  renderer::Stats stats;  // rank 0: the whole render's; other ranks: the round's
+  if (resumed) {
+    std::visit([&](auto& m) { m.resume(*scene, std::move(resumed->sum), first); }, *method);
+    stats = resumed->stats;
+    std::fprintf(stderr, "segpath-render: resuming %s at iteration %llu\n", o.resume->c_str(),
+                 static_cast<unsigned long long>(first));
+  }
+  const renderer::Stats before = stats;
 
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, o.threads);
   tbb::task_arena arena(int(o.threads));
-  renderer::Stats stats;
-  std::uint64_t iterations = 0;
   Progress progress;
   const auto start = Clock::now();
   const auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
-  arena.execute([&] {
+  double checkpointed = 0;  // elapsed() at the last checkpoint
+  const auto checkpoint = [&](std::uint64_t iterations) {
+    std::visit([&](const auto& m) { renderer::write_checkpoint(*o.checkpoint, {image_options, iterations, stats, m.sum()}); },
+               *method);
+    checkpointed = elapsed();
+  };
+  std::uint64_t next = first;
+  try {
+    segpath::Framebuffer<renderer::Color> received(o.width, o.height);  // rank 0: another rank's iteration
     std::visit(
         [&](auto& m) {
           for (;;) {
-            if (o.time ? (iterations > 0 && elapsed() >= *o.time) : iterations >= o.spp) break;
-            m.iterate(scene, stats, renderer::TbbFor{});
-            ++iterations;
-            progress.update(o.time ? elapsed() / *o.time : double(iterations) / double(o.spp), elapsed());
+            // A round: ranks 0 .. count - 1 render iterations next .. next + count - 1.
+            std::uint64_t count = 0;
+            if (o.time) {
+              if (!ranks.broadcast(root && (next == first || elapsed() < *o.time))) break;
+              count = size;
+            } else {
+              if (next >= o.spp) break;
+              count = std::min(size, o.spp - next);
+            }
+            const std::uint64_t rank = std::uint64_t(ranks.rank());
+            if (rank < count) arena.execute([&] { m.render(*scene, next + rank, stats, renderer::TbbFor{}); });
+            if (root) {
+              m.accumulate(*scene, m.iteration_image(), stats);
+              for (std::uint64_t r = 1; r < count; ++r) {
+                std::array<std::uint64_t, stats_words> words{};
+                ranks.receive(int(r), std::as_writable_bytes(received.pixels()));
+                ranks.receive(int(r), std::as_writable_bytes(std::span(words)));
+                m.accumulate(*scene, received, stats);
+                stats += stats_of(words);
+              }
+            } else if (rank < count) {
+              ranks.send_to_root(std::as_bytes(m.iteration_image().pixels()));
+              const auto words = stats_words_of(stats);
+              ranks.send_to_root(std::as_bytes(std::span(words)));
+              stats = {};
+            }
+            next += count;
+            if (root) {
+              progress.update(o.time ? elapsed() / *o.time : double(next - first) / double(o.spp - first), elapsed());
+              if (o.checkpoint && elapsed() - checkpointed >= o.checkpoint_every) checkpoint(next);
+            }
           }
         },
         *method);
-  });
+  } catch (const std::exception& e) {
+    // An error during the render is one rank's own (a failed checkpoint write, no memory):
+    // the other ranks would wait for its images forever.
+    std::fprintf(stderr, "segpath-render%s: error: %s\n",
+                 size > 1 ? (" (rank " + std::to_string(ranks.rank()) + ")").c_str() : "", e.what());
+    ranks.abort_all(1);
+  }
   const double seconds = elapsed();
+  if (!root) return 0;
   progress.finish();
+  if (o.checkpoint) checkpoint(next);
 
   // The image: sum / iterations (the sum in double, each iteration's non-finite pixels already
   // dropped); a pixel that does not fit a float is zeroed and counted.
   const renderer::Accumulator& sum = std::visit([](const auto& m) -> const renderer::Accumulator& { return m.sum(); }, *method);
   examples::Image image(int(o.width), int(o.height));
   for (std::uint32_t p = 0; p < sum.pixel_count(); ++p) {
-    const auto v = sum[p] / double(iterations);
+    const auto v = sum[p] / double(next);
     const segpath::Rgb<float> f(float(v.r), float(v.g), float(v.b));
     if (segpath::is_finite(f)) {
       image.pixels[p] = f;
@@ -235,10 +387,14 @@ int run(const Options& o) {
   for (std::size_t r = 0; r < segpath::drop_reason_count; ++r)
     dropped += std::string(r ? ", " : "") + segpath::to_string(segpath::DropReason(r)) + " " +
                std::to_string(stats.dropped.counts[r]);
-  std::printf("segpath-render: %s %s %ux%u, %llu spp (%llu iterations), %u threads, %.2f s, %.3f M samples/s, %.3f M rays/s, mean %.4f, dropped %llu (%s)",
-              std::string(renderer::method_name(*method)).c_str(), scene.name().c_str(), o.width, o.height,
-              static_cast<unsigned long long>(iterations), static_cast<unsigned long long>(iterations), o.threads, seconds,
-              double(stats.paths) / seconds * 1e-6, double(stats.rays) / seconds * 1e-6, image.mean(),
+  const std::string threads = std::to_string(o.threads) + (o.threads == 1 ? " thread" : " threads");
+  const std::string workers = size > 1 ? std::to_string(size) + " ranks x " + threads : threads;
+  // Rates of this run (a resumed render's earlier iterations are not in `seconds`).
+  const double paths = double(stats.paths - before.paths), rays = double(stats.rays - before.rays);
+  std::printf("segpath-render: %s %s %ux%u, %llu spp (%llu iterations), %s, %.2f s, %.3f M samples/s, %.3f M rays/s, mean %.4f, dropped %llu (%s)",
+              std::string(renderer::method_name(*method)).c_str(), scene->name().c_str(), o.width, o.height,
+              static_cast<unsigned long long>(next), static_cast<unsigned long long>(next), workers.c_str(), seconds,
+              seconds > 0 ? paths / seconds * 1e-6 : 0.0, seconds > 0 ? rays / seconds * 1e-6 : 0.0, image.mean(),
               static_cast<unsigned long long>(stats.dropped.total()), dropped.c_str());
   if (reference) {
     const auto e = renderer::compare(image, *reference);
@@ -261,16 +417,21 @@ int main(int argc, char** argv) {
   // the heap (glibc would return them with munmap and the kernel zero every page again).
   mallopt(M_MMAP_THRESHOLD, 1 << 30);
   mallopt(M_TRIM_THRESHOLD, -1);
+  const renderer::Ranks ranks(argc, argv);  // MPI from here (a build with it) to the end of main
   const renderer::CommandLine command_line = renderer::parse_command_line(argc, argv);
-  if (!command_line.options) {
-    std::fputs(command_line.message.c_str(), command_line.exit_code == 0 ? stdout : stderr);
-    return command_line.exit_code;
+  // Ranks normally share one command line: rank 0 prints the help or the error, other ranks
+  // only an error of their own.
+  const bool parsed = command_line.options.has_value();
+  if (!ranks.all(parsed)) {
+    const bool root_parsed = ranks.broadcast(ranks.root() && parsed) != 0;
+    if (!parsed && (ranks.root() || root_parsed))
+      std::fputs(command_line.message.c_str(), command_line.exit_code == 0 ? stdout : stderr);
+    return parsed ? 1 : command_line.exit_code;
   }
-  const Options& o = *command_line.options;
   try {
-    return run(o);
+    return run(*command_line.options, ranks);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "segpath-render: error: %s\n", e.what());
-    return 1;
+    ranks.abort_all(1);
   }
 }

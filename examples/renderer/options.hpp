@@ -20,6 +20,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -50,6 +51,8 @@ struct Options {
   std::optional<double> memory_limit_gb;
   std::vector<std::string> out;
   std::optional<std::string> reference;
+  std::optional<std::string> checkpoint, resume;
+  double checkpoint_every = 60;  ///< seconds between checkpoints (0: after every iteration round)
   // OBJ scenes only: a look-at camera ("x,y,z" vectors).
   std::string camera_position = "0,0,0", camera_target = "0,1,0", camera_up = "0,0,1";
   float fov = 45;
@@ -165,6 +168,16 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
   app.add_option("--reference", o.reference,
                  "reference image (.pfm or .exr): prints RMSE and relMSE, relMSE = mean over pixels and channels of "
                  "(x - r)^2 / (r^2 + 1e-2)");
+  auto* checkpoint = app.add_option("--checkpoint", o.checkpoint,
+                                    "write the render's state to FILE every --checkpoint-every seconds and at the end "
+                                    "(atomically: FILE is always a complete checkpoint)");
+  app.add_option("--checkpoint-every", o.checkpoint_every, "seconds between checkpoints; 0: after every iteration (round)")
+      ->check(CLI::Range(0.0, 1e9))
+      ->needs(checkpoint)
+      ->capture_default_str();
+  app.add_option("--resume", o.resume,
+                 "continue the render saved in FILE (a --checkpoint of a render with the same options) up to --spp "
+                 "iterations in all, or for --time more seconds");
   app.footer(
       "Prints one summary line on stdout: method, scene, resolution, samples per pixel (iterations), threads, wall time, "
       "samples and rays (intersect + visible calls) per second, image mean, dropped samples by reason, and with "
@@ -184,6 +197,41 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
     return {std::nullopt, 2, std::string("segpath-render: cannot read the command line: ") + e.what() + " (see --help)\n"};
   }
   return {std::move(o), 0, {}};
+}
+
+/// The options that decide a render's image for a given iteration count, as "key=value" lines
+/// in a fixed order: ranks of one render must agree on them, and a checkpoint resumes only a
+/// render with the same ones. (Threads, outputs, --stats, memory and cache options only change
+/// how the image is computed.)
+inline std::string image_options(const Options& o) {
+  std::string text;
+  const auto line = [&](const char* key, const std::string& value) { text += std::string(key) + "=" + value + "\n"; };
+  const auto number = [](double v) {
+    char s[40];
+    std::snprintf(s, sizeof s, "%.17g", v);
+    return std::string(s);
+  };
+  const auto optional = [&](const std::optional<double>& v) { return v ? number(*v) : std::string("default"); };
+  line("scene", o.scene);
+  line("method", o.method);
+  line("seed", std::to_string(o.seed));
+  line("width", std::to_string(o.width));
+  line("height", std::to_string(o.height));
+  line("max-length", std::to_string(o.max_length));
+  line("radius", optional(o.radius));
+  line("alpha", optional(o.alpha));
+  line("beta", optional(o.beta));
+  line("support", o.support);
+  line("bridges", o.bridges ? "on" : "off");
+  line("next-event", o.next_event ? "on" : "off");
+  line("weighting", o.weighting);
+  if (ends_with_obj(o.scene)) {
+    line("camera-position", o.camera_position);
+    line("camera-target", o.camera_target);
+    line("camera-up", o.camera_up);
+    line("fov", number(o.fov));
+  }
+  return text;
 }
 
 /// The library options the command line sets (the method's own defaults where it is silent).

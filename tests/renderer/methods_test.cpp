@@ -576,7 +576,7 @@ TEST_CASE("BDPF's image mean is PT's in a closed diffuse box at max length 2, 3 
       segpath::Framebuffer<renderer::Color> image(side, side);
       filter.render_iteration_at(counting, i, 1.0f / 16, image, drops, renderer::TbbFor{});
       double mean = 0;
-      for (std::uint32_t p = 0; p < image.pixel_count(); ++p) mean += channel_mean(renderer::detail::to_double(image[p]));
+      for (std::uint32_t p = 0; p < image.pixel_count(); ++p) mean += channel_mean(segpath::Rgb<double>(image[p]));
       bdpf.add(mean / image.pixel_count());
     }
     const double sigma = std::hypot(pt.standard_error(), bdpf.standard_error());

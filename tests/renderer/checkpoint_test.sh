@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# segpath-render's checkpoints (examples/renderer/checkpoint.hpp), one case per CTest test:
+#   checkpoint_test.sh RENDER DIR CASE
+# resume_after_kill: a render killed (SIGKILL) after a checkpoint, resumed, equals an
+#   uninterrupted render bit for bit; extend: a finished render resumed with a larger --spp
+#   equals one render of that --spp; the rest: a bad --resume file is refused with one line.
+set -euo pipefail
+render=$1 dir=$2/$3 case=$3
+rm -rf "$dir" && mkdir -p "$dir" && cd "$dir"
+# VCM: a kernel method, so a resume must also continue the radius schedule.
+args=(--scene cornell1 --method vcm --width 32 --height 32 --threads 2 --seed 7)
+
+fail() { echo "FAIL ($case): $*" >&2; exit 1; }
+# expect_error MESSAGE ARGS...: exit code 1, one line on stderr matching MESSAGE.
+expect_error() {
+  local message=$1 code=0
+  shift
+  "$render" "${args[@]}" "$@" >out.txt 2>err.txt || code=$?
+  [[ $code == 1 ]] || fail "exit code $code, expected 1; stderr: $(cat err.txt)"
+  [[ $(wc -l <err.txt) == 1 ]] || fail "expected one line on stderr, got: $(cat err.txt)"
+  grep -q -E -e "$message" err.txt || fail "expected '$message', got: $(cat err.txt)"
+  echo "refused: $(cat err.txt)"
+}
+# A finished 4-iteration render's checkpoint.
+checkpoint4() { "$render" "${args[@]}" --spp 4 --checkpoint ck >/dev/null; }
+
+case $case in
+  resume_after_kill)
+    spp=1000
+    "$render" "${args[@]}" --spp $spp --out uninterrupted.pfm
+    "$render" "${args[@]}" --spp $spp --checkpoint ck --checkpoint-every 0 --out killed.pfm >/dev/null 2>&1 &
+    pid=$!
+    for _ in $(seq 1000); do [[ -f ck ]] && break; sleep 0.01; done
+    [[ -f ck ]] || fail "no checkpoint written"
+    sleep 0.1
+    kill -KILL $pid 2>/dev/null || fail "the render finished before it was killed (make it longer)"
+    wait $pid 2>/dev/null || true
+    [[ ! -f killed.pfm ]] || fail "the killed render wrote its image"
+    "$render" "${args[@]}" --spp $spp --resume ck --checkpoint ck --out resumed.pfm 2>err.txt
+    at=$(sed -n 's/.*resuming ck at iteration \([0-9]*\).*/\1/p' err.txt)
+    [[ -n $at && $at -gt 0 && $at -lt $spp ]] || fail "expected a resume inside the render, got: $(cat err.txt)"
+    cmp uninterrupted.pfm resumed.pfm || fail "the resumed render differs from the uninterrupted one"
+    echo "killed at iteration $at of $spp; resumed image identical" ;;
+  extend)
+    "$render" "${args[@]}" --spp 6 --out direct.pfm >/dev/null
+    checkpoint4
+    "$render" "${args[@]}" --spp 6 --resume ck --out extended.pfm >/dev/null
+    cmp direct.pfm extended.pfm || fail "4 + 2 iterations differ from 6"
+    echo "4 + 2 iterations identical to 6" ;;
+  missing) expect_error "--resume .*: no such file" --spp 4 --resume nothing.ck ;;
+  not_a_checkpoint)
+    "$render" "${args[@]}" --spp 1 --out image.pfm >/dev/null
+    expect_error "not a segpath-render checkpoint" --spp 4 --resume image.pfm ;;
+  corrupt)
+    checkpoint4
+    size=$(stat -c %s ck)
+    # Flip one bit of a pixel of the sum (the middle of the file).
+    python3 - "$size" <<'PY'
+import sys
+size = int(sys.argv[1])
+with open("ck", "r+b") as f:
+    f.seek(size // 2)
+    b = f.read(1)
+    f.seek(size // 2)
+    f.write(bytes([b[0] ^ 0x10]))
+PY
+    expect_error "corrupt" --spp 8 --resume ck ;;
+  truncated)
+    checkpoint4
+    truncate -s -100 ck
+    expect_error "corrupt|truncated" --spp 8 --resume ck ;;
+  other_options)
+    checkpoint4
+    expect_error "--resume ck: written by a render with other options \(--alpha: default in the checkpoint, 0.5 in this render\)" \
+      --spp 8 --resume ck --alpha 0.5 ;;
+  more_than_spp)
+    checkpoint4
+    expect_error "it holds 4 iterations, more than --spp 3" --spp 3 --resume ck ;;
+  *) fail "unknown case" ;;
+esac
