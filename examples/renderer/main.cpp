@@ -216,6 +216,19 @@ renderer::Stats stats_of(const std::array<std::uint64_t, stats_words>& w) {
   return s;
 }
 
+/// Where rank 0's time for the other ranks' iterations goes (--stats): waiting for a rank to
+/// finish its iteration, receiving its image, adding it to the sum.
+struct Reduction {
+  std::uint64_t iterations = 0;
+  double waiting = 0, receiving = 0, adding = 0;
+  void add(Clock::time_point wait, Clock::time_point receive, Clock::time_point add, Clock::time_point end) {
+    ++iterations;
+    waiting += std::chrono::duration<double>(receive - wait).count();
+    receiving += std::chrono::duration<double>(add - receive).count();
+    adding += std::chrono::duration<double>(end - add).count();
+  }
+};
+
 int run(const Options& o, const renderer::Ranks& ranks) {
   const bool root = ranks.root();
   const std::string image_options = renderer::image_options(o);
@@ -316,8 +329,9 @@ int run(const Options& o, const renderer::Ranks& ranks) {
     checkpointed = elapsed();
   };
   std::uint64_t next = first;
+  Reduction reduction;  // rank 0's cost of the other ranks' iterations
+  segpath::Framebuffer<renderer::Color> received(size > 1 && root ? o.width : 1, size > 1 && root ? o.height : 1);
   try {
-    segpath::Framebuffer<renderer::Color> received(o.width, o.height);  // rank 0: another rank's iteration
     std::visit(
         [&](auto& m) {
           for (;;) {
@@ -336,10 +350,15 @@ int run(const Options& o, const renderer::Ranks& ranks) {
               m.accumulate(*scene, m.iteration_image(), stats);
               for (std::uint64_t r = 1; r < count; ++r) {
                 std::array<std::uint64_t, stats_words> words{};
+                const auto waiting = Clock::now();
+                ranks.wait_for(int(r));
+                const auto receiving = Clock::now();
                 ranks.receive(int(r), std::as_writable_bytes(received.pixels()));
                 ranks.receive(int(r), std::as_writable_bytes(std::span(words)));
+                const auto adding = Clock::now();
                 m.accumulate(*scene, received, stats);
                 stats += stats_of(words);
+                reduction.add(waiting, receiving, adding, Clock::now());
               }
             } else if (rank < count) {
               ranks.send_to_root(std::as_bytes(m.iteration_image().pixels()));
@@ -365,6 +384,14 @@ int run(const Options& o, const renderer::Ranks& ranks) {
   const double seconds = elapsed();
   if (!root) return 0;
   progress.finish();
+  if (o.stats && reduction.iterations)
+    std::fprintf(stderr,
+                 "segpath-render: rank 0 added %llu iterations of other ranks: waiting for them %.3f s in all; per "
+                 "iteration %.3f ms receiving (%.1f MB), %.3f ms adding\n",
+                 static_cast<unsigned long long>(reduction.iterations), reduction.waiting,
+                 1e3 * reduction.receiving / double(reduction.iterations),
+                 double(received.pixel_count()) * sizeof(renderer::Color) * 1e-6,
+                 1e3 * reduction.adding / double(reduction.iterations));
   if (o.checkpoint) checkpoint(next);
 
   // The image: sum / iterations (the sum in double, each iteration's non-finite pixels already

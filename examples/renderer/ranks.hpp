@@ -91,6 +91,15 @@ class Ranks {
     throw std::logic_error("renderer::Ranks: one process has no rank to send to");
 #endif
   }
+  /// Returns when a message of rank `from` has started to arrive (MPI_Probe): the time spent here
+  /// is waiting for that rank, the receive() after it is the transfer.
+  void wait_for(int from) const {
+#if SEGPATH_RENDER_MPI
+    MPI_Probe(from, tag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+#else
+    (void)from;
+#endif
+  }
   /// Receives into `bytes` (of the size sent) what rank `from` sent with send_to_root().
   void receive(int from, std::span<std::byte> bytes) const {
 #if SEGPATH_RENDER_MPI
