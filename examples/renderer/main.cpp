@@ -26,6 +26,7 @@
 #include <span>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdint>
 #include <cstdio>
 #include <exception>
@@ -216,6 +217,21 @@ renderer::Stats stats_of(const std::array<std::uint64_t, stats_words>& w) {
   return s;
 }
 
+/// The signal that asked the render to stop (SIGINT, SIGTERM, SIGUSR1), 0 while none did. The
+/// render stops after the current round, writes its checkpoint and images and exits with
+/// 128 + the signal; a second signal ends it at once. (mpirun forwards SIGUSR1 to the ranks;
+/// on SIGINT and SIGTERM it kills them after a few seconds.)
+volatile std::sig_atomic_t stop_signal = 0;
+
+void request_stop(int signal) {
+  stop_signal = signal;
+  std::signal(signal, SIG_DFL);
+}
+
+void stop_on_signals() {
+  for (const int s : {SIGINT, SIGTERM, SIGUSR1}) std::signal(s, request_stop);
+}
+
 /// Where rank 0's time for the other ranks' iterations goes (--stats): waiting for a rank to
 /// finish its iteration, receiving its image, adding it to the sum.
 struct Reduction {
@@ -317,6 +333,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
   }
   const renderer::Stats before = stats;
 
+  stop_on_signals();
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, o.threads);
   tbb::task_arena arena(int(o.threads));
   Progress progress;
@@ -329,6 +346,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
     checkpointed = elapsed();
   };
   std::uint64_t next = first;
+  bool stopped = false;  // by a signal, before the render's end
   Reduction reduction;  // rank 0's cost of the other ranks' iterations
   segpath::Framebuffer<renderer::Color> received(size > 1 && root ? o.width : 1, size > 1 && root ? o.height : 1);
   try {
@@ -336,14 +354,15 @@ int run(const Options& o, const renderer::Ranks& ranks) {
         [&](auto& m) {
           for (;;) {
             // A round: ranks 0 .. count - 1 render iterations next .. next + count - 1.
-            std::uint64_t count = 0;
-            if (o.time) {
-              if (!ranks.broadcast(root && (next == first || elapsed() < *o.time))) break;
-              count = size;
-            } else {
-              if (next >= o.spp) break;
-              count = std::min(size, o.spp - next);
+            // Rank 0 decides whether it starts, for every rank: the budget, or a stop signal.
+            constexpr std::uint64_t finished = 0, go = 1, stop = 2;
+            const bool more = o.time ? next == first || elapsed() < *o.time : next < o.spp;
+            const std::uint64_t decision = ranks.broadcast(!root || !more ? finished : stop_signal ? stop : go);
+            if (decision != go) {
+              stopped = decision == stop;
+              break;
             }
+            const std::uint64_t count = o.time ? size : std::min(size, o.spp - next);
             const std::uint64_t rank = std::uint64_t(ranks.rank());
             if (rank < count) arena.execute([&] { m.render(*scene, next + rank, stats, renderer::TbbFor{}); });
             if (root) {
@@ -382,8 +401,16 @@ int run(const Options& o, const renderer::Ranks& ranks) {
     ranks.abort_all(1);
   }
   const double seconds = elapsed();
-  if (!root) return 0;
+  // A rank other than 0 may not have seen the signal: rank 0's is the exit code.
+  const int stopped_code = 128 + int(ranks.broadcast(std::uint64_t(stop_signal)));
+  if (!root) return stopped ? stopped_code : 0;
   progress.finish();
+  if (stopped) {
+    std::fprintf(stderr, "segpath-render: stopped by signal %d after %llu iterations%s\n", stopped_code - 128,
+                 static_cast<unsigned long long>(next),
+                 o.checkpoint ? ("; continue with --resume " + *o.checkpoint).c_str() : "");
+    if (next == 0) return stopped_code;  // nothing rendered: no image, no checkpoint
+  }
   if (o.stats && reduction.iterations)
     std::fprintf(stderr,
                  "segpath-render: rank 0 added %llu iterations of other ranks: waiting for them %.3f s in all; per "
@@ -428,7 +455,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
     std::printf(", RMSE %.6g, relMSE %.6g", e.rmse, e.relmse);
   }
   std::printf("\n");
-  return 0;
+  return stopped ? stopped_code : 0;
 }
 
 }  // namespace

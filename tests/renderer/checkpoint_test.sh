@@ -2,7 +2,8 @@
 # segpath-render's checkpoints (examples/renderer/checkpoint.hpp), one case per CTest test:
 #   checkpoint_test.sh RENDER DIR CASE
 # resume_after_kill: a render killed (SIGKILL) after a checkpoint, resumed, equals an
-#   uninterrupted render bit for bit; extend: a finished render resumed with a larger --spp
+#   uninterrupted render bit for bit; stop_on_signal: the same after SIGTERM, which stops the
+#   render cleanly (checkpoint, image, exit code 143); extend: a finished render resumed with a larger --spp
 #   equals one render of that --spp; the rest: a bad --resume file is refused with one line.
 set -euo pipefail
 render=$1 dir=$2/$3 case=$3
@@ -41,6 +42,24 @@ case $case in
     [[ -n $at && $at -gt 0 && $at -lt $spp ]] || fail "expected a resume inside the render, got: $(cat err.txt)"
     cmp uninterrupted.pfm resumed.pfm || fail "the resumed render differs from the uninterrupted one"
     echo "killed at iteration $at of $spp; resumed image identical" ;;
+  stop_on_signal)
+    # SIGTERM: the render stops after its round, writes its checkpoint and image, exits 143.
+    spp=1000
+    "$render" "${args[@]}" --spp $spp --out uninterrupted.pfm >/dev/null
+    code=0
+    "$render" "${args[@]}" --spp $spp --checkpoint ck --checkpoint-every 0 --out stopped.pfm >out.txt 2>err.txt &
+    pid=$!
+    for _ in $(seq 1000); do [[ -f ck ]] && break; sleep 0.01; done
+    kill -TERM $pid
+    wait $pid || code=$?
+    [[ $code == 143 ]] || fail "exit code $code, expected 143; stderr: $(cat err.txt)"
+    grep -q -E "stopped by signal 15 after [0-9]+ iterations; continue with --resume ck" err.txt || fail "stderr: $(cat err.txt)"
+    [[ -f stopped.pfm ]] || fail "the stopped render wrote no image"
+    "$render" "${args[@]}" --spp $spp --resume ck --out resumed.pfm 2>err.txt >/dev/null
+    at=$(sed -n 's/.*resuming ck at iteration \([0-9]*\).*/\1/p' err.txt)
+    [[ -n $at && $at -gt 0 && $at -lt $spp ]] || fail "expected a resume inside the render, got: $(cat err.txt)"
+    cmp uninterrupted.pfm resumed.pfm || fail "the resumed render differs from the uninterrupted one"
+    echo "stopped at iteration $at of $spp; resumed image identical" ;;
   extend)
     "$render" "${args[@]}" --spp 6 --out direct.pfm >/dev/null
     checkpoint4

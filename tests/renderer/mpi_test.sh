@@ -3,7 +3,8 @@
 #   mpi_test.sh RENDER MPIEXEC DIR CASE
 # bit_for_bit_METHOD: the image of 1 process (2 threads), 2 ranks (1 thread each) and 3 ranks
 #   (2 threads each) is the same file, for an iteration count that no rank count divides;
-# time: --time across ranks; checkpoint: a checkpoint of 2 ranks resumed by 1 process; the
+# time: --time across ranks; checkpoint: a checkpoint of 2 ranks resumed by 1 process;
+# stop_on_usr1: SIGUSR1 to mpirun stops every rank after one round, resumable; the
 # rest: bad input refused with one clear line from rank 0.
 set -euo pipefail
 render=$1 mpiexec=$2 dir=$3/$4 case=$4
@@ -46,6 +47,22 @@ case $case in
     "$render" "${args[@]}" --method bdpf --spp 5 --out direct.pfm >/dev/null
     cmp direct.pfm resumed.pfm || fail "3 iterations on 2 ranks + 2 resumed differ from 5"
     echo "checkpoint of 2 ranks resumed by 1 process: identical" ;;
+  stop_on_usr1)
+    # mpirun forwards SIGUSR1: every rank stops after the same round, rank 0 checkpoints.
+    "$mpiexec" --allow-run-as-root --oversubscribe -n 2 "$render" "${args[@]}" --method vcm --spp 100000 --threads 1 \
+      --checkpoint ck --checkpoint-every 0 >out.txt 2>err.txt &
+    pid=$!
+    for _ in $(seq 2000); do [[ -f ck ]] && break; sleep 0.01; done
+    code=0
+    kill -USR1 $pid
+    wait $pid || code=$?
+    [[ $code != 0 ]] || fail "expected a non-zero exit after the signal"
+    at=$(sed -n 's/.*stopped by signal 10 after \([0-9]*\) iterations.*/\1/p' err.txt)
+    [[ -n $at && $((at % 2)) == 0 ]] || fail "expected an even iteration count (whole rounds), got: $(cat err.txt)"
+    "$render" "${args[@]}" --method vcm --spp $((at + 3)) --resume ck --out resumed.pfm >/dev/null 2>&1
+    "$render" "${args[@]}" --method vcm --spp $((at + 3)) --out direct.pfm >/dev/null
+    cmp direct.pfm resumed.pfm || fail "the stopped render resumed differs from an uninterrupted one"
+    echo "2 ranks stopped by SIGUSR1 after $at iterations; resumed image identical" ;;
   more_ranks_than_iterations)
     expect_error "3 ranks for 2 iterations" -n 3 "$render" "${args[@]}" --spp 2 ;;
   different_options)
