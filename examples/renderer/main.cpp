@@ -23,6 +23,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <span>
 #include <chrono>
 #include <cmath>
@@ -32,6 +33,7 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <optional>
 #include <string>
 #include <thread>
@@ -221,10 +223,11 @@ renderer::Stats stats_of(const std::array<std::uint64_t, stats_words>& w) {
 /// render stops after the current round, writes its checkpoint and images and exits with
 /// 128 + the signal; a second signal ends it at once. (mpirun forwards SIGUSR1 to the ranks;
 /// on SIGINT and SIGTERM it kills them after a few seconds.)
-volatile std::sig_atomic_t stop_signal = 0;
+std::atomic<int> stop_signal{0};
+static_assert(std::atomic<int>::is_always_lock_free);  // so that a signal handler may store it
 
 void request_stop(int signal) {
-  stop_signal = signal;
+  stop_signal.store(signal);
   std::signal(signal, SIG_DFL);
 }
 
@@ -247,7 +250,17 @@ struct Reduction {
 
 int run(const Options& o, const renderer::Ranks& ranks) {
   const bool root = ranks.root();
-  const std::string image_options = renderer::image_options(o);
+  // An OBJ scene is also identified by its bytes: ranks on other machines, or a resume after the
+  // file changed, must not mix scenes (its .mtl files are not read here).
+  std::string image_options = renderer::image_options(o);
+  if (ends_with_obj(o.scene)) {
+    std::ifstream obj(o.scene, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(obj)), std::istreambuf_iterator<char>());
+    char line[48];
+    std::snprintf(line, sizeof line, "scene-content=%016llx\n",
+                  static_cast<unsigned long long>(renderer::detail::fnv1a(bytes)));
+    image_options += line;
+  }
 
   // Every rank must render the same image: compare a hash of the options that decide it.
   {
@@ -286,6 +299,10 @@ int run(const Options& o, const renderer::Ranks& ranks) {
           if (const std::string d = renderer::first_difference(resumed->options, image_options, "the checkpoint", "this render");
               !d.empty())
             fail("--resume " + *o.resume + ": written by a render with other options (" + d + ")");
+          if (resumed->sum.width() != o.width || resumed->sum.height() != o.height)
+            fail("--resume " + *o.resume + ": the checkpoint is corrupt (a " + std::to_string(resumed->sum.width()) + " x " +
+                 std::to_string(resumed->sum.height()) + " sum for a " + std::to_string(o.width) + " x " +
+                 std::to_string(o.height) + " render)");
           if (!o.time && resumed->iterations > o.spp)
             fail("--resume " + *o.resume + ": it holds " + std::to_string(resumed->iterations) +
                  " iterations, more than --spp " + std::to_string(o.spp));
@@ -300,7 +317,8 @@ int run(const Options& o, const renderer::Ranks& ranks) {
   std::optional<renderer::Method> method;
   std::optional<renderer::RenderScene> scene;
   if (!on_every_rank(ranks, [&] {
-        if (!o.time && first < o.spp && size > o.spp - first)
+        // (A resumed render may end with a partial round: ranks beyond its iterations wait.)
+        if (!o.time && first == 0 && size > o.spp)
           fail(std::to_string(size) + " ranks for " + std::to_string(o.spp - first) +
                " iterations: every rank renders whole iterations; start at most " + std::to_string(o.spp - first) +
                " ranks or raise --spp");
@@ -325,12 +343,14 @@ int run(const Options& o, const renderer::Ranks& ranks) {
       std::fprintf(stderr, "segpath-render: warning: %s\n", family->c_str());
 
   renderer::Stats stats;  // rank 0: the whole render's; other ranks: the round's
-  if (resumed) {
-    std::visit([&](auto& m) { m.resume(*scene, std::move(resumed->sum), first); }, *method);
-    stats = resumed->stats;
-    std::fprintf(stderr, "segpath-render: resuming %s at iteration %llu\n", o.resume->c_str(),
-                 static_cast<unsigned long long>(first));
-  }
+  if (!on_every_rank(ranks, [&] {
+        if (!resumed) return;
+        std::visit([&](auto& m) { m.resume(*scene, std::move(resumed->sum), first); }, *method);
+        stats = resumed->stats;
+        std::fprintf(stderr, "segpath-render: resuming %s at iteration %llu\n", o.resume->c_str(),
+                     static_cast<unsigned long long>(first));
+      }))
+    return 1;
   const renderer::Stats before = stats;
 
   stop_on_signals();
@@ -340,9 +360,17 @@ int run(const Options& o, const renderer::Ranks& ranks) {
   const auto start = Clock::now();
   const auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
   double checkpointed = 0;  // elapsed() at the last checkpoint
+  bool checkpoint_failed = false;
+  // A checkpoint that cannot be written is a warning: the render goes on (the previous
+  // checkpoint stays valid) and exits with 1 after writing its images.
   const auto checkpoint = [&](std::uint64_t iterations) {
-    std::visit([&](const auto& m) { renderer::write_checkpoint(*o.checkpoint, {image_options, iterations, stats, m.sum()}); },
-               *method);
+    try {
+      std::visit([&](const auto& m) { renderer::write_checkpoint(*o.checkpoint, image_options, iterations, stats, m.sum()); },
+                 *method);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "segpath-render: warning: %s\n", e.what());
+      checkpoint_failed = true;
+    }
     checkpointed = elapsed();
   };
   std::uint64_t next = first;
@@ -357,7 +385,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
             // Rank 0 decides whether it starts, for every rank: the budget, or a stop signal.
             constexpr std::uint64_t finished = 0, go = 1, stop = 2;
             const bool more = o.time ? next == first || elapsed() < *o.time : next < o.spp;
-            const std::uint64_t decision = ranks.broadcast(!root || !more ? finished : stop_signal ? stop : go);
+            const std::uint64_t decision = ranks.broadcast(!root || !more ? finished : stop_signal.load() ? stop : go);
             if (decision != go) {
               stopped = decision == stop;
               break;
@@ -402,13 +430,13 @@ int run(const Options& o, const renderer::Ranks& ranks) {
   }
   const double seconds = elapsed();
   // A rank other than 0 may not have seen the signal: rank 0's is the exit code.
-  const int stopped_code = 128 + int(ranks.broadcast(std::uint64_t(stop_signal)));
+  const int stopped_code = 128 + int(ranks.broadcast(std::uint64_t(stop_signal.load())));
   if (!root) return stopped ? stopped_code : 0;
   progress.finish();
   if (stopped) {
     std::fprintf(stderr, "segpath-render: stopped by signal %d after %llu iterations%s\n", stopped_code - 128,
                  static_cast<unsigned long long>(next),
-                 o.checkpoint ? ("; continue with --resume " + *o.checkpoint).c_str() : "");
+                 o.checkpoint && next > 0 ? ("; continue with --resume " + *o.checkpoint).c_str() : "");
     if (next == 0) return stopped_code;  // nothing rendered: no image, no checkpoint
   }
   if (o.stats && reduction.iterations)
@@ -419,7 +447,6 @@ int run(const Options& o, const renderer::Ranks& ranks) {
                  1e3 * reduction.receiving / double(reduction.iterations),
                  double(received.pixel_count()) * sizeof(renderer::Color) * 1e-6,
                  1e3 * reduction.adding / double(reduction.iterations));
-  if (o.checkpoint) checkpoint(next);
 
   // The image: sum / iterations (the sum in double, each iteration's non-finite pixels already
   // dropped); a pixel that does not fit a float is zeroed and counted.
@@ -436,6 +463,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
     }
   }
   for (const auto& path : o.out) renderer::write_image(image, path);
+  if (o.checkpoint) checkpoint(next);  // after the images: a failure here must not lose them
 
   std::string dropped;
   for (std::size_t r = 0; r < segpath::drop_reason_count; ++r)
@@ -455,7 +483,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
     std::printf(", RMSE %.6g, relMSE %.6g", e.rmse, e.relmse);
   }
   std::printf("\n");
-  return stopped ? stopped_code : 0;
+  return stopped ? stopped_code : checkpoint_failed ? 1 : 0;
 }
 
 }  // namespace

@@ -21,8 +21,12 @@ namespace renderer {
 class Ranks {
  public:
   /// Starts MPI (when built with it); argc and argv as main got them.
+  /// Started without a launcher (no mpirun, srun or mpiexec environment), the process is one
+  /// rank and skips MPI_Init: a singleton MPI start costs about 0.4 s here.
   Ranks(int& argc, char**& argv) {
 #if SEGPATH_RENDER_MPI
+    if (!launched_by_mpi()) return;
+    mpi_ = true;
     int provided = 0;
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
@@ -34,8 +38,16 @@ class Ranks {
   }
   ~Ranks() {
 #if SEGPATH_RENDER_MPI
-    MPI_Finalize();
+    if (mpi_) MPI_Finalize();
 #endif
+  }
+
+  /// Whether an MPI launcher started this process: Open MPI's mpirun, MPICH's Hydra (PMI) or a
+  /// PMIx launcher such as Slurm's srun set these.
+  [[nodiscard]] static bool launched_by_mpi() noexcept {
+    for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_RANK", "PMI_RANK"})
+      if (std::getenv(name) != nullptr) return true;
+    return false;
   }
   Ranks(const Ranks&) = delete;
   Ranks& operator=(const Ranks&) = delete;
@@ -48,7 +60,7 @@ class Ranks {
   /// Rank 0's value, on every rank.
   [[nodiscard]] std::uint64_t broadcast(std::uint64_t value) const {
 #if SEGPATH_RENDER_MPI
-    MPI_Bcast(&value, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+    if (size_ > 1) MPI_Bcast(&value, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
 #endif
     return value;
   }
@@ -56,7 +68,7 @@ class Ranks {
   [[nodiscard]] bool all(bool value) const {
     int v = value ? 1 : 0;
 #if SEGPATH_RENDER_MPI
-    MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_INT, MPI_LAND, MPI_COMM_WORLD);
+    if (size_ > 1) MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_INT, MPI_LAND, MPI_COMM_WORLD);
 #endif
     return v != 0;
   }
@@ -65,21 +77,10 @@ class Ranks {
     const std::uint64_t root_value = broadcast(value);
     int first = value == root_value ? size_ : rank_;
 #if SEGPATH_RENDER_MPI
-    MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (size_ > 1) MPI_Allreduce(MPI_IN_PLACE, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
 #endif
     return first == size_ ? -1 : first;
   }
-  /// Element-wise sums of `values` over the ranks, on rank 0 (other ranks' values unchanged).
-  void sum_to_root(std::span<std::uint64_t> values) const {
-#if SEGPATH_RENDER_MPI
-    if (size_ > 1)
-      MPI_Reduce(root() ? MPI_IN_PLACE : values.data(), values.data(), int(values.size()), MPI_UINT64_T, MPI_SUM, 0,
-                 MPI_COMM_WORLD);
-#else
-    (void)values;
-#endif
-  }
-
   /// Sends `bytes` to rank 0, which receives them with receive() (in messages of at most 1 GiB:
   /// MPI counts are ints).
   void send_to_root(std::span<const std::byte> bytes) const {
@@ -140,6 +141,7 @@ class Ranks {
   static constexpr std::size_t max_message = std::size_t(1) << 30;
   int rank_ = 0;
   int size_ = 1;
+  bool mpi_ = false;  ///< MPI_Init was called
 };
 
 }  // namespace renderer

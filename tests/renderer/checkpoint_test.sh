@@ -66,6 +66,38 @@ case $case in
     "$render" "${args[@]}" --spp 6 --resume ck --out extended.pfm >/dev/null
     cmp direct.pfm extended.pfm || fail "4 + 2 iterations differ from 6"
     echo "4 + 2 iterations identical to 6" ;;
+  unwritable_checkpoint)
+    # A checkpoint that cannot be written is a warning; the images are written, the exit code is 1.
+    mkdir ck.tmp
+    code=0
+    "$render" "${args[@]}" --spp 4 --checkpoint ck --out image.pfm >out.txt 2>err.txt || code=$?
+    [[ $code == 1 ]] || fail "exit code $code, expected 1"
+    grep -q "warning: --checkpoint ck: cannot create ck.tmp" err.txt || fail "stderr: $(cat err.txt)"
+    [[ -f image.pfm ]] || fail "no image written"
+    grep -q "4 spp" out.txt || fail "no summary line: $(cat out.txt)"
+    echo "checkpoint failure: warned, image and summary written" ;;
+  wrong_size|huge_size)
+    # A checkpoint whose header is consistent with its checksum but not with the render: a
+    # 1 x 1 sum, or a size whose byte count overflows 64 bits.
+    checkpoint4
+    python3 - "$case" <<'PY'
+import struct, sys
+data = bytearray(open("ck", "rb").read())
+at = len(b"segpath-checkpoint\n") + 8
+(length,) = struct.unpack_from("<Q", data, at)
+at += 8 + length
+if sys.argv[1] == "wrong_size":
+    struct.pack_into("<II", data, at, 1, 1)
+    del data[at + 8 + 8 * 3 + 8 + 8 * 3 + 24: -8]  # keep one pixel (the drop counts' number is read below)
+else:
+    struct.pack_into("<II", data, at, 1 << 31, 1 << 30)
+h = 0xcbf29ce484222325
+for b in data[:-8]:
+    h = ((h ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
+struct.pack_into("<Q", data, len(data) - 8, h)
+open("ck", "wb").write(data)
+PY
+    expect_error "--resume ck: the checkpoint is corrupt" --spp 8 --resume ck ;;
   missing) expect_error "--resume .*: no such file" --spp 4 --resume nothing.ck ;;
   not_a_checkpoint)
     "$render" "${args[@]}" --spp 1 --out image.pfm >/dev/null

@@ -47,6 +47,13 @@ case $case in
     "$render" "${args[@]}" --method bdpf --spp 5 --out direct.pfm >/dev/null
     cmp direct.pfm resumed.pfm || fail "3 iterations on 2 ranks + 2 resumed differ from 5"
     echo "checkpoint of 2 ranks resumed by 1 process: identical" ;;
+  resume_near_end)
+    # Resumed with fewer iterations left than ranks: the last round is partial, not refused.
+    "$render" "${args[@]}" --method vcm --spp 4 --checkpoint ck >/dev/null
+    mpirun -n 3 "$render" "${args[@]}" --method vcm --spp 5 --threads 1 --resume ck --out resumed.pfm >/dev/null
+    "$render" "${args[@]}" --method vcm --spp 5 --out direct.pfm >/dev/null
+    cmp direct.pfm resumed.pfm || fail "4 iterations + 1 on 3 ranks differ from 5"
+    echo "resumed on 3 ranks for 1 iteration: identical" ;;
   stop_on_usr1)
     # mpirun forwards SIGUSR1: every rank stops after the same round, rank 0 checkpoints.
     "$mpiexec" --allow-run-as-root --oversubscribe -n 2 "$render" "${args[@]}" --method vcm --spp 100000 --threads 1 \
