@@ -2,7 +2,6 @@
 // densities (every technique's density built from the samplers' pdf functions), options
 // validation, and the hash grid against a linear scan.
 #include <segpath/algorithms/vcm.hpp>
-#include <segpath/kernels/hash_grid.hpp>
 #include <segpath/sensors/pinhole_camera.hpp>
 #include <segpath/testing/sphere_interior.hpp>
 
@@ -261,38 +260,4 @@ TEST_CASE("the kernel radius follows ProgressiveRadius from iteration 0", "[algo
   CHECK(k.at(2) == Approx(0.2 * std::sqrt(0.75 * 2.5 / 3)));
   o.mode = VcmMode::bdpt;
   CHECK_FALSE(VertexConnectionMerging<Sphere>(o).kernel_schedule(scene).has_kernel());
-}
-
-TEMPLATE_TEST_CASE("the hash grid finds exactly the points within the radius, in a fixed order", "[algorithms][kernels]",
-                   float, double) {
-  using T = TestType;
-  Pcg32 rng(7, 1);
-  std::vector<Vec3<T>> points(3000);
-  for (auto& p : points) p = Vec3<T>(rng.uniform<T>() * 4 - 2, rng.uniform<T>() * 4 - 2, rng.uniform<T>() * T(0.5));
-  std::vector<std::uint32_t> items(points.size());
-  for (std::uint32_t i = 0; i < items.size(); ++i) items[i] = i;
-  HashGrid<T> grid;
-  for (const T r : {T(0.05), T(0.3)}) {
-    grid.build(items, r, [&](std::uint32_t i) { return points[i]; });
-    CHECK(grid.size() == points.size());
-    for (int q = 0; q < 300; ++q) {
-      const Vec3<T> c(rng.uniform<T>() * 4 - 2, rng.uniform<T>() * 4 - 2, rng.uniform<T>() * T(0.5));
-      std::vector<std::uint32_t> found, again, expected;
-      grid.for_each_within(c, [&](std::uint32_t i, const Vec3<T>&) { found.push_back(i); });
-      grid.for_each_within(c, [&](std::uint32_t i, const Vec3<T>&) { again.push_back(i); });
-      for (std::uint32_t i = 0; i < points.size(); ++i)
-        if (glm::dot(points[i] - c, points[i] - c) < r * r) expected.push_back(i);
-      CHECK(found == again);
-      std::sort(found.begin(), found.end());
-      CHECK(found == expected);
-    }
-  }
-  // Non-finite items are left out; an empty grid answers nothing.
-  points[5] = Vec3<T>(std::numeric_limits<T>::quiet_NaN());
-  grid.build(items, T(0.1), [&](std::uint32_t i) { return points[i]; });
-  CHECK(grid.size() == points.size() - 1);
-  grid.build({}, T(0.1), [&](std::uint32_t i) { return points[i]; });
-  int calls = 0;
-  grid.for_each_within(Vec3<T>(0), [&](std::uint32_t, const Vec3<T>&) { ++calls; });
-  CHECK(calls == 0);
 }

@@ -64,6 +64,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   using Vertex = VcmVertex<S>;
+  using Photon = VcmPhoton<S>;
   using Iteration = VcmIteration<T>;
   using MisState = VcmMisState<T>;
   // The MIS weight of each technique (vcm/weights.hpp).
@@ -184,7 +185,9 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
       for (std::size_t id = 0; id < sc.light_vertices.size(); ++id)
         if (!sc.light_vertices[id].specular && sc.light_vertices[id].point.kind == PointKind::surface)
           sc.photons.push_back(static_cast<std::uint32_t>(id));
-      sc.grid.build(sc.photons, radius, [&](std::uint32_t id) { return sc.light_vertices[id].point.position; });
+      sc.grid.build(
+          sc.photons.size(), radius, [&](std::size_t i) { return std::optional(sc.light_vertices[sc.photons[i]].point.position); },
+          [&](std::size_t i) { return Photon::of(sc.light_vertices[sc.photons[i]]); }, parallel_for);
     }
     const std::size_t chunks = std::min<std::size_t>(chunk_count, pixels);
     sc.camera_drops.assign(chunks, DropCounters{});
@@ -221,8 +224,10 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
       const auto next = light_next_.sample(scene, {segment, direction}, rng);
       if (!next) break;
       v.specular = next->delta;
-      if (!scatter_light(scene, it, state, v, -next->direction, next->delta)) break;
-      if (!arrive(it, state, v.point, next->segment.x, next->direction)) break;
+      if (!it.ppm) {  // ppm's merges are unweighted: no MIS state to carry
+        if (!scatter_light(scene, it, state, v, -next->direction, next->delta)) break;
+        if (!arrive(it, state, v.point, next->segment.x, next->direction)) break;
+      }
       S throughput = v.throughput * next->weight;
       if (!survives(v.length, *next, throughput, rng) || is_black(throughput)) break;
       out[count] = Vertex{next->segment.x, next->direction, throughput, state, v.length + 1, false};
@@ -291,7 +296,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     std::vector<std::vector<Vertex>> chunk_vertices;      ///< the ends each chunk traced
     std::vector<std::vector<Vertex>> path_buffers;        ///< per chunk: one subpath's ends while tracing
     std::vector<std::uint32_t> photons;
-    HashGrid<T> grid;
+    HashGrid<T, Photon> grid;  ///< the photons' merging state, in cell order
     SplatRecorder<S> splats{chunk_count};
     std::vector<DropCounters> camera_drops;
   };
@@ -316,6 +321,13 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     const auto a = scene.sensor().sample_ray(SensorSampleQuery<T>{0, Vec2<T>(T(0.5)), Vec2<T>(T(0.25))});
     const auto b = scene.sensor().sample_ray(SensorSampleQuery<T>{0, Vec2<T>(T(0.5)), Vec2<T>(T(0.75))});
     return a && b && a->direction != b->direction;
+  }
+
+  /// Whether the BSDF says the point has no delta lobe (HasIsDelta): ppm then gathers there
+  /// without sampling the next lobe (the same choice under the class's assumption on materials).
+  [[nodiscard]] static bool known_non_delta(const Scn& scene, const SurfacePoint<T>& p) noexcept {
+    if constexpr (HasIsDelta<std::remove_cvref_t<decltype(scene.bsdf())>, S>) return !scene.bsdf().is_delta(p);
+    else return false;
   }
 
   static void accumulate(S& total, const S& value, DropCounters& drops) noexcept {
@@ -366,6 +378,10 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
         if (!is_black(emitted)) accumulate(total, throughput * emitted * emission_weight(scene, it, segment.x, v), drops);
       }
       if (escaped || length >= max || segment.y.kind != PointKind::surface) break;
+      if (it.ppm && known_non_delta(scene, v.point)) {  // gathered without tracing the next segment
+        merge(scene, it, v, total, drops);
+        break;
+      }
       const auto next = next_.sample(scene, {segment, direction}, rng);
       if (!(next && next->delta)) {
         if (it.ppm) {
@@ -433,10 +449,9 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     const Scratch& sc = scratch_;
     S sum(T(0));
     const std::size_t max = options_.max_length;
-    sc.grid.for_each_within(c.point.position, [&](std::uint32_t id, const Vec3<T>&) noexcept {
-      const Vertex& l = sc.light_vertices[id];
+    sc.grid.for_each_within(c.point.position, [&](const Photon& l, const Vec3<T>&) noexcept {
       if (c.length + l.length > max) return;
-      if (!(glm::dot(l.point.normal, c.point.normal) >= merge_min_normal_cosine)) return;
+      if (!(glm::dot(l.normal, c.point.normal) >= merge_min_normal_cosine)) return;
       const S f = scene.bsdf().eval(BsdfQuery<T>{c.point, c.to_previous, l.to_previous, Transport::radiance});
       if (is_black(f)) return;
       sum += f * l.throughput * merge_weight(scene, it, c, l, f);

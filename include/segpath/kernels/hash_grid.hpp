@@ -3,66 +3,135 @@
 // queried with "every item within radius r of p", in a deterministic order.
 #pragma once
 
+#include "segpath/core/parallel.hpp"
 #include "segpath/core/vec.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <stdexcept>
+#include <utility>
 #include <vector>
 
 namespace segpath {
 
-/// Items are indices the caller chooses (e.g. light-vertex numbers); the grid keeps a copy of
-/// their positions. Cells have edge 2r, so a query ball of radius r touches at most 2 x 2 x 2
-/// cells; cells are hashed into as many buckets as there are items (a power of two). Buckets
-/// are filled by a stable counting sort, so a query visits items bucket by bucket and, within
-/// a bucket, in the order they were given to build(): the same input gives the same visiting
+/// Items are what the caller stores with each position: an index it chooses (e.g. a light-vertex
+/// number), or the data a query needs (VCM keeps each light end's merging state there, so a
+/// query reads the items of a cell from one contiguous run instead of chasing an index into a
+/// larger array per item). Cells have edge 2r, so a query ball of radius r touches at most
+/// 2 x 2 x 2 cells; cells are hashed into as many buckets as there are items (a power of two).
+/// Buckets are filled by a stable counting sort, so a query visits items bucket by bucket and,
+/// within a bucket, in the order of their source index: the same input gives the same visiting
 /// order on every machine and thread count. build() reuses its storage (no allocation once the
 /// capacity suffices); queries never allocate.
-template <Real T>
+template <Real T, class Item = std::uint32_t>
 class HashGrid {
  public:
-  /// Builds the grid for query radius `radius` (> 0, finite) over `items`, whose positions are
-  /// `position_of(item)`. Items with non-finite positions are left out.
-  template <class PositionOf>
-  void build(std::span<const std::uint32_t> items, T radius, PositionOf&& position_of) {
+  /// Builds the grid for query radius `radius` (> 0, finite) over the sources 0 .. count - 1:
+  /// `position_of(i)` is source i's position as std::optional<Vec3<T>> (nullopt: left out) and
+  /// `item_of(i)` the Item stored for it. Sources with non-finite positions are left out too.
+  /// position_of is called twice per source, item_of once per kept source, both from the
+  /// threads of `parallel_for`; no copy of the items is staged. The result does not depend on
+  /// `parallel_for`. Throws std::length_error for 2^32 sources or more.
+  template <class PositionOf, class ItemOf, ParallelFor P = SerialFor>
+  void build(std::size_t count, T radius, PositionOf&& position_of, ItemOf&& item_of, const P& parallel_for = {}) {
+    if (count >= std::size_t(skipped)) throw std::length_error("segpath::HashGrid: 2^32 items or more");
     radius_ = radius;
     radius2_ = radius * radius;
     inv_cell_ = T(1) / (T(2) * radius);
-    std::size_t buckets = 1;
-    while (buckets < items.size()) buckets <<= 1u;
+    unsigned bucket_bits = 0;
+    while ((std::size_t(1) << bucket_bits) < count) ++bucket_bits;
+    const std::size_t buckets = std::size_t(1) << bucket_bits;
     mask_ = buckets - 1;
-    bucket_start_.assign(buckets + 1, 0);
-    item_bucket_.clear();
-    staged_.clear();
-    for (const std::uint32_t item : items) {
-      const Vec3<T> p = position_of(item);
-      if (!is_finite(p)) continue;
-      const auto c = cell_of(p);
-      if (!c) continue;
-      const std::size_t b = bucket(*c);
-      staged_.push_back(Entry{p, item});
-      item_bucket_.push_back(static_cast<std::uint32_t>(b));
-      ++bucket_start_[b + 1];
+    // A stable counting sort by bucket in three parallel passes. Buckets form `groups` runs by
+    // their high bits: (1) each source's bucket, counted per chunk of sources and group;
+    // (2) the sources listed group by group, in index order within a group; (3) per group, a
+    // counting sort of its own sources into its own buckets (a run small enough to stay cached).
+    const unsigned group_bits = std::min(bucket_bits, max_group_bits);
+    const unsigned group_shift = bucket_bits - group_bits;
+    const std::size_t groups = std::size_t(1) << group_bits;
+    const std::size_t chunks = std::min(count, max_chunks);
+    const auto chunk_begin = [&](std::size_t c) { return count * c / chunks; };
+    source_bucket_.resize(count);
+    chunk_group_next_.assign(chunks * groups, 0);
+    parallel_for(chunks, [&](std::size_t c) {
+      std::uint32_t* counts = chunk_group_next_.data() + c * groups;
+      for (std::size_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i) {
+        source_bucket_[i] = skipped;
+        const std::optional<Vec3<T>> p = position_of(i);
+        if (!p || !is_finite(*p)) continue;
+        const auto cell = cell_of(*p);
+        if (!cell) continue;
+        const auto b = static_cast<std::uint32_t>(bucket(*cell));
+        source_bucket_[i] = b;
+        ++counts[b >> group_shift];
+      }
+    });
+    group_start_.resize(groups + 1);
+    std::uint32_t total = 0;
+    for (std::size_t g = 0; g < groups; ++g) {
+      group_start_[g] = total;
+      for (std::size_t c = 0; c < chunks; ++c) {
+        std::uint32_t& next = chunk_group_next_[c * groups + g];
+        const std::uint32_t n = next;
+        next = total;
+        total += n;
+      }
     }
-    for (std::size_t b = 0; b < buckets; ++b) bucket_start_[b + 1] += bucket_start_[b];
-    entries_.resize(staged_.size());
-    cursor_.assign(bucket_start_.begin(), bucket_start_.end() - 1);
-    for (std::size_t i = 0; i < staged_.size(); ++i) entries_[cursor_[item_bucket_[i]]++] = staged_[i];
+    group_start_[groups] = total;
+    grouped_.resize(total);
+    parallel_for(chunks, [&](std::size_t c) {
+      std::uint32_t* next = chunk_group_next_.data() + c * groups;
+      for (std::size_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i)
+        if (source_bucket_[i] != skipped) grouped_[next[source_bucket_[i] >> group_shift]++] = static_cast<std::uint32_t>(i);
+    });
+    // Per group, bucket_start_[b + 1] counts bucket b, then holds its start, then (as the
+    // placement's cursor) its end, which is the start of b + 1.
+    bucket_start_.resize(buckets + 1);
+    bucket_start_[0] = 0;
+    entries_.resize(total);
+    const std::size_t group_size = std::size_t(1) << group_shift;
+    parallel_for(groups, [&](std::size_t g) {
+      std::uint32_t* slot = bucket_start_.data() + g * group_size + 1;  // slot[b - first bucket]
+      const std::size_t first = g * group_size;
+      std::fill(slot, slot + group_size, 0u);
+      const std::uint32_t* begin = grouped_.data() + group_start_[g];
+      const std::uint32_t* end = grouped_.data() + group_start_[g + 1];
+      for (const std::uint32_t* i = begin; i != end; ++i) ++slot[source_bucket_[*i] - first];
+      std::uint32_t running = group_start_[g];
+      for (std::size_t b = 0; b < group_size; ++b) {
+        const std::uint32_t n = slot[b];
+        slot[b] = running;
+        running += n;
+      }
+      for (const std::uint32_t* i = begin; i != end; ++i)
+        entries_[slot[source_bucket_[*i] - first]++] = Entry{*position_of(*i), item_of(*i)};
+    });
+  }
+
+  /// Builds the grid over `items` (each its own Item), at positions `position_of(item)`.
+  template <class PositionOf, ParallelFor P = SerialFor>
+  void build(std::span<const Item> items, T radius, PositionOf&& position_of, const P& parallel_for = {}) {
+    build(
+        items.size(), radius, [&](std::size_t i) { return std::optional<Vec3<T>>(position_of(items[i])); },
+        [&](std::size_t i) -> const Item& { return items[i]; }, parallel_for);
   }
 
   [[nodiscard]] std::size_t size() const noexcept { return entries_.size(); }
   [[nodiscard]] T radius() const noexcept { return radius_; }
 
-  /// Calls f(item, position) for every item with |position - p| < radius.
+  /// Calls f(item, position) for every item with |position - p| < radius (item: const Item&).
   template <class F>
-  void for_each_within(const Vec3<T>& p, F&& f) const noexcept(noexcept(f(std::uint32_t{}, p))) {
+  void for_each_within(const Vec3<T>& p, F&& f) const noexcept(noexcept(f(std::declval<const Item&>(), p))) {
     if (entries_.empty() || !is_finite(p)) return;
     const auto lo = cell_of(p - Vec3<T>(radius_));
     const auto hi = cell_of(p + Vec3<T>(radius_));
     if (!lo || !hi) return;
+    // The (at most 8) buckets first, then their ranges, then their items: each stage's loads are
+    // independent of each other, so their cache misses overlap instead of queueing.
     std::array<std::size_t, 8> visited{};
     std::size_t count = 0;
     for (std::int64_t z = (*lo)[2]; z <= (*hi)[2]; ++z)
@@ -73,19 +142,38 @@ class HashGrid {
           for (std::size_t i = 0; i < count; ++i) seen = seen || visited[i] == b;
           if (seen || count == visited.size()) continue;
           visited[count++] = b;
-          for (std::size_t i = bucket_start_[b]; i < bucket_start_[b + 1]; ++i) {
-            const Vec3<T> d = entries_[i].position - p;
-            if (glm::dot(d, d) < radius2_) f(entries_[i].item, entries_[i].position);
-          }
+          prefetch(&bucket_start_[b]);
         }
+    std::array<std::uint32_t, 8> begin{}, end{};
+    for (std::size_t k = 0; k < count; ++k) {
+      begin[k] = bucket_start_[visited[k]];
+      end[k] = bucket_start_[visited[k] + 1];
+      if (begin[k] != end[k]) prefetch(&entries_[begin[k]]);
+    }
+    for (std::size_t k = 0; k < count; ++k)
+      for (std::size_t i = begin[k]; i < end[k]; ++i) {
+        const Vec3<T> d = entries_[i].position - p;
+        if (glm::dot(d, d) < radius2_) f(entries_[i].item, entries_[i].position);
+      }
   }
 
  private:
   struct Entry {
     Vec3<T> position;
-    std::uint32_t item;
+    Item item;
   };
+  static constexpr std::uint32_t skipped = ~std::uint32_t(0);
+  static constexpr unsigned max_group_bits = 8;   ///< at most 256 bucket groups in build()
+  static constexpr std::size_t max_chunks = 64;   ///< build()'s chunks of sources
   using Cell = std::array<std::int64_t, 3>;
+
+  static void prefetch(const void* address) noexcept {
+#if defined(__GNUC__) || defined(__clang__)
+    __builtin_prefetch(address);
+#else
+    (void)address;
+#endif
+  }
 
   /// The cell of p, or nothing when its coordinates do not fit in 2^52.
   [[nodiscard]] std::optional<Cell> cell_of(const Vec3<T>& p) const noexcept {
@@ -105,9 +193,12 @@ class HashGrid {
 
   T radius_ = 0, radius2_ = 0, inv_cell_ = 0;
   std::size_t mask_ = 0;
-  std::vector<std::size_t> bucket_start_, cursor_;
-  std::vector<std::uint32_t> item_bucket_;
-  std::vector<Entry> staged_, entries_;
+  std::vector<std::uint32_t> bucket_start_;      ///< (< 2^32 items, checked by build)
+  std::vector<std::uint32_t> source_bucket_;     ///< build: per source, its bucket or skipped
+  std::vector<std::uint32_t> chunk_group_next_;  ///< build: per chunk and group, a count, then a cursor
+  std::vector<std::uint32_t> group_start_;       ///< build: per group, its first entry
+  std::vector<std::uint32_t> grouped_;           ///< build: the kept sources, group by group
+  std::vector<Entry> entries_;
 };
 
 }  // namespace segpath

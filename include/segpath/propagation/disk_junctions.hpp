@@ -64,7 +64,7 @@ class DiskJunctions {
     for (std::uint32_t i = 0; i < n; ++i)
       if (segments[i].x.kind == PointKind::surface) starts.push_back(i);
     HashGrid<T> grid;
-    grid.build(starts, radius, [&](std::uint32_t i) { return Vec3<T>(canonical(segments[i].x)); });
+    grid.build(starts, radius, [&](std::uint32_t i) { return Vec3<T>(canonical(segments[i].x)); }, parallel_for);
 
     // Two passes over the ends (count, then fill), each parallel over chunks of segments.
     const T threshold = min_normal_cosine - T(8) * std::numeric_limits<T>::epsilon();

@@ -44,6 +44,23 @@ struct VcmVertex {
   bool specular = false;
 };
 
+/// What merging reads of a stored light end (VcmVertex without its position, which the hash grid
+/// keeps beside it, and without what only connections need). The grid stores these in its cell
+/// order, so a merge query streams through them.
+template <class S>
+struct VcmPhoton {
+  using Scalar = spectrum_scalar_t<S>;
+  Vec3<Scalar> normal{};
+  Vec3<Scalar> to_previous{};
+  S throughput{};
+  VcmMisState<Scalar> mis{};
+  std::uint32_t length = 0;
+
+  [[nodiscard]] static VcmPhoton of(const VcmVertex<S>& v) noexcept {
+    return VcmPhoton{v.point.normal, v.to_previous, v.throughput, v.mis, v.length};
+  }
+};
+
 /// The constants of one iteration: radius, light-subpath count and the MIS factors of
 /// (Georgiev et al. 2012) eta = pi r^2 N_light.
 template <Real T>
@@ -146,8 +163,10 @@ struct VcmWeights {
     if (it.ppm) return T(1);
     return merge_weight(scene, it, c, l, roulette_f(scene, it, {c.point, c.to_previous, l.to_previous, Transport::radiance}));
   }
-  /// merge_weight with f_r at c between the two subpaths' directions.
-  [[nodiscard]] static T merge_weight(const Scn& scene, const Iteration& it, const Vertex& c, const Vertex& l, const S& f) noexcept {
+  /// merge_weight with f_r at c between the two subpaths' directions; `l` is a light end's
+  /// VcmVertex or VcmPhoton (its `to_previous` and `mis` are read).
+  template <class LightEnd>
+  [[nodiscard]] static T merge_weight(const Scn& scene, const Iteration& it, const Vertex& c, const LightEnd& l, const S& f) noexcept {
     if (it.ppm) return T(1);
     const T forward_pdf = scene.bsdf().pdf(BsdfQuery<T>{c.point, c.to_previous, l.to_previous, Transport::radiance});
     const T reverse_pdf = scene.bsdf().pdf(BsdfQuery<T>{c.point, c.to_previous, l.to_previous, Transport::importance});
