@@ -33,8 +33,9 @@ class HashGrid {
   /// Builds the grid for query radius `radius` (> 0, finite) over the sources 0 .. count - 1:
   /// `position_of(i)` is source i's position as std::optional<Vec3<T>> (nullopt: left out) and
   /// `item_of(i)` the Item stored for it. Sources with non-finite positions are left out too.
-  /// position_of is called twice per source, item_of once per kept source, both from the
-  /// threads of `parallel_for`; no copy of the items is staged. The result does not depend on
+  /// position_of is called twice per source, item_of once per kept source, both in index order
+  /// within each of `parallel_for`'s tasks; items are staged per thread only one bucket group
+  /// (1/256 of them) at a time. The result does not depend on
   /// `parallel_for`. Throws std::length_error for 2^32 sources or more.
   template <class PositionOf, class ItemOf, ParallelFor P = SerialFor>
   void build(std::size_t count, T radius, PositionOf&& position_of, ItemOf&& item_of, const P& parallel_for = {}) {
@@ -48,8 +49,8 @@ class HashGrid {
     mask_ = buckets - 1;
     // A stable counting sort by bucket in three parallel passes. Buckets form `groups` runs by
     // their high bits: (1) each source's bucket, counted per chunk of sources and group;
-    // (2) the sources listed group by group, in index order within a group; (3) per group, a
-    // counting sort of its own sources into its own buckets (a run small enough to stay cached).
+    // (2) the entries laid out group by group, in index order within a group; (3) per group, a
+    // counting sort of its own run into its own buckets (a run small enough to stay cached).
     const unsigned group_bits = std::min(bucket_bits, max_group_bits);
     const unsigned group_shift = bucket_bits - group_bits;
     const std::size_t groups = std::size_t(1) << group_bits;
@@ -82,33 +83,42 @@ class HashGrid {
       }
     }
     group_start_[groups] = total;
-    grouped_.resize(total);
+    // (2) reads the sources in index order (streaming), (3) sorts through a per-thread buffer
+    // the size of one run, so the random writes of both stay within cached runs.
+    grouped_bucket_.resize(total);
+    entries_.resize(total);
     parallel_for(chunks, [&](std::size_t c) {
       std::uint32_t* next = chunk_group_next_.data() + c * groups;
-      for (std::size_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i)
-        if (source_bucket_[i] != skipped) grouped_[next[source_bucket_[i] >> group_shift]++] = static_cast<std::uint32_t>(i);
+      for (std::size_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i) {
+        const std::uint32_t b = source_bucket_[i];
+        if (b == skipped) continue;
+        const std::uint32_t k = next[b >> group_shift]++;
+        entries_[k] = Entry{*position_of(i), item_of(i)};
+        grouped_bucket_[k] = b;
+      }
     });
     // Per group, bucket_start_[b + 1] counts bucket b, then holds its start, then (as the
     // placement's cursor) its end, which is the start of b + 1.
     bucket_start_.resize(buckets + 1);
     bucket_start_[0] = 0;
-    entries_.resize(total);
     const std::size_t group_size = std::size_t(1) << group_shift;
     parallel_for(groups, [&](std::size_t g) {
-      std::uint32_t* slot = bucket_start_.data() + g * group_size + 1;  // slot[b - first bucket]
       const std::size_t first = g * group_size;
+      std::uint32_t* slot = bucket_start_.data() + first + 1;  // slot[b - first]
       std::fill(slot, slot + group_size, 0u);
-      const std::uint32_t* begin = grouped_.data() + group_start_[g];
-      const std::uint32_t* end = grouped_.data() + group_start_[g + 1];
-      for (const std::uint32_t* i = begin; i != end; ++i) ++slot[source_bucket_[*i] - first];
-      std::uint32_t running = group_start_[g];
+      const std::uint32_t begin = group_start_[g], end = group_start_[g + 1];
+      for (std::uint32_t k = begin; k != end; ++k) ++slot[grouped_bucket_[k] - first];
+      std::uint32_t running = 0;  // relative to the run's start
       for (std::size_t b = 0; b < group_size; ++b) {
         const std::uint32_t n = slot[b];
         slot[b] = running;
         running += n;
       }
-      for (const std::uint32_t* i = begin; i != end; ++i)
-        entries_[slot[source_bucket_[*i] - first]++] = Entry{*position_of(*i), item_of(*i)};
+      thread_local std::vector<Entry> sorted;
+      sorted.resize(end - begin);
+      for (std::uint32_t k = begin; k != end; ++k) sorted[slot[grouped_bucket_[k] - first]++] = std::move(entries_[k]);
+      std::move(sorted.begin(), sorted.end(), entries_.begin() + std::ptrdiff_t(begin));
+      for (std::size_t b = 0; b < group_size; ++b) slot[b] += begin;
     });
   }
 
@@ -197,7 +207,7 @@ class HashGrid {
   std::vector<std::uint32_t> source_bucket_;     ///< build: per source, its bucket or skipped
   std::vector<std::uint32_t> chunk_group_next_;  ///< build: per chunk and group, a count, then a cursor
   std::vector<std::uint32_t> group_start_;       ///< build: per group, its first entry
-  std::vector<std::uint32_t> grouped_;           ///< build: the kept sources, group by group
+  std::vector<std::uint32_t> grouped_bucket_;    ///< build: the bucket of each entry before (3)
   std::vector<Entry> entries_;
 };
 
