@@ -162,6 +162,13 @@ template <Real T>
   const Vec3<double> oc = q.origin - s.center;
   const Vec3<double>& d = q.direction;
   const double b = glm::dot(oc, d);
+  // A line that passes the sphere farther than twice either endpoint's on-surface band meets it
+  // nowhere and has neither endpoint on it (every point of the line is at least |h| from the
+  // centre): the common miss, decided without the square roots below.
+  const Vec3<double> h = oc - b * d;
+  const double band = 2 * std::max(embree_on_surface_tolerance<T>(q.origin, s.scale),
+                                   q.skip_far_surface ? embree_on_surface_tolerance<T>(q.far_point, s.scale) : 0.0);
+  if (glm::dot(h, h) > (s.radius + band) * (s.radius + band)) return std::nullopt;
   const bool on_origin =
       std::abs(glm::length(oc) - s.radius) <= embree_on_surface_tolerance<T>(q.origin, s.scale);
   const bool on_far =
@@ -179,7 +186,6 @@ template <Real T>
       return std::nullopt;
   } else {
     // Discriminant from the closest approach h (Haines et al., Ray Tracing Gems ch. 7).
-    const Vec3<double> h = oc - b * d;
     const double disc = s.radius * s.radius - glm::dot(h, h);
     if (!(disc >= 0)) return std::nullopt;
     const double q_root = -b - std::copysign(std::sqrt(disc), b);
