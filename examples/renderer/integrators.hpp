@@ -58,6 +58,8 @@ struct MethodOptions {
   std::optional<double> radius;  ///< kernel radius (VCM family) or voxel size (filtering); unset: method default
   std::optional<double> alpha;   ///< progressive reduction, in (0, 1); unset: the method's library default
   std::optional<double> beta;    ///< light paths per camera path (> 0); unset: the method's library default
+  /// pt, lt, the VCM family: Russian roulette from this path length on (0: never); unset: the method's default
+  std::optional<std::size_t> roulette_from;
   segpath::FilteringSupport support = segpath::FilteringSupport::voxel;  ///< filtering: junction support
   bool bridges = false;          ///< bdpf: add bridge segments
   bool next_event = segpath::FilteringOptions<float>{}.next_event;  ///< mvf, bdpf: add next-event segments
@@ -270,10 +272,13 @@ class PtMethod : public MethodRun<segpath::PathTracer<ThreadCountingScene>> {
   static constexpr std::string_view name = "pt";
   static constexpr std::string_view description = "path tracing with next-event estimation (MIS)";
 
-  // Russian roulette with SmallVCM's rule (core/roulette.hpp) from the third segment on (SmallVCM
-  // starts at the first; the third is better at equal time here: docs/figures.md).
+  /// Russian roulette with SmallVCM's rule (core/roulette.hpp) from the third segment on by
+  /// default (SmallVCM starts at the first; the third is better at equal time: docs/figures.md).
+  static constexpr std::size_t default_roulette_from = 3;
+
   explicit PtMethod(const MethodOptions& o)
-      : MethodRun(segpath::PathTracer<ThreadCountingScene>({o.max_length, segpath::MisHeuristic::power, 3, o.seed})) {}
+      : MethodRun(segpath::PathTracer<ThreadCountingScene>(
+            {o.max_length, segpath::MisHeuristic::power, o.roulette_from.value_or(default_roulette_from), o.seed})) {}
 };
 
 /// Light tracing (segpath::LightTracer::render_iteration): #pixels light paths per iteration,
@@ -284,7 +289,7 @@ class LtMethod : public MethodRun<segpath::LightTracer<ThreadCountingScene>> {
   static constexpr std::string_view description = "light tracing (splats to the camera)";
 
   explicit LtMethod(const MethodOptions& o)
-      : MethodRun(segpath::LightTracer<ThreadCountingScene>({o.max_length, 0, o.seed})) {}
+      : MethodRun(segpath::LightTracer<ThreadCountingScene>({o.max_length, o.roulette_from.value_or(0), o.seed})) {}
 };
 
 /// BDPT, PPM, BPM and VCM (segpath::VertexConnectionMerging, one implementation with modes):
@@ -312,8 +317,8 @@ class VcmMethod : public MethodRun<segpath::VertexConnectionMerging<ThreadCounti
     if (o.alpha) v.alpha = *o.alpha;
     if (o.beta) v.light_path_factor = *o.beta;
     v.seed = o.seed;
-    // Russian roulette from the first scattering, SmallVCM's schedule (docs/figures.md).
-    v.roulette_from = 1;
+    // Russian roulette from the first scattering by default, SmallVCM's schedule (docs/figures.md).
+    v.roulette_from = o.roulette_from.value_or(1);
     return v;
   }
 };

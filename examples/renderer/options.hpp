@@ -42,6 +42,7 @@ struct Options {
   std::size_t max_length = cornell_max_length;
   std::optional<double> radius;
   std::optional<double> alpha, beta;
+  std::optional<std::size_t> roulette_from;
   std::string support = "voxel";
   bool bridges = false;
   bool next_event = segpath::FilteringOptions<float>{}.next_event;
@@ -136,6 +137,10 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
       ->check(open_unit_interval);
   app.add_option("--beta", o.beta, "light paths per camera path, > 0; default 1")
       ->check(positive_finite);
+  app.add_option("--roulette-from", o.roulette_from,
+                 "pt/lt/bdpt/ppm/bpm/vcm: Russian roulette after every scattering from this path length (segments) on, "
+                 "0: never; default 3 (pt), 1 (bdpt, ppm, bpm, vcm: SmallVCM's), 0 (lt)")
+      ->check(unsigned_integer)->check(CLI::Range(std::size_t(0), std::size_t(1000)));
   app.add_option("--support", o.support, "mvf/phf/bdpf: kernel support of the junctions, voxel (the paper's) or disk")
       ->check(CLI::IsMember({"voxel", "disk"}))
       ->capture_default_str();
@@ -221,6 +226,7 @@ inline std::string image_options(const Options& o) {
   line("radius", optional(o.radius));
   line("alpha", optional(o.alpha));
   line("beta", optional(o.beta));
+  line("roulette-from", o.roulette_from ? std::to_string(*o.roulette_from) : std::string("default"));
   line("support", o.support);
   line("bridges", o.bridges ? "on" : "off");
   line("next-event", o.next_event ? "on" : "off");
@@ -242,6 +248,7 @@ inline MethodOptions method_options(const Options& o) {
   mo.radius = o.radius;
   mo.alpha = o.alpha;
   mo.beta = o.beta;
+  mo.roulette_from = o.roulette_from;
   mo.support = o.support == "disk" ? segpath::FilteringSupport::disk : segpath::FilteringSupport::voxel;
   mo.bridges = o.bridges;
   mo.next_event = o.next_event;
