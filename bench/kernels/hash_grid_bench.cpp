@@ -18,7 +18,7 @@ namespace {
 using namespace segpath;
 using T = float;
 
-/// The size of VCM's 48-byte merging state (VcmPhoton<Rgb<float>>).
+/// The size of VCM's 52-byte merging state (VcmPhoton<Rgb<float>>).
 struct Payload {
   std::array<T, 11> state{};
   std::uint32_t length = 0;
@@ -31,8 +31,8 @@ struct LightEnd {
 };
 
 /// n points on the six walls of the unit box, in random order (light ends of random paths).
-std::vector<LightEnd> light_ends(std::size_t n) {
-  Pcg32 rng(5, 1);
+std::vector<LightEnd> light_ends(std::size_t n, std::uint64_t stream = 1) {
+  Pcg32 rng(5, stream);
   std::vector<LightEnd> ends(n);
   for (auto& e : ends) {
     const auto wall = std::uint32_t(rng.uniform<T>() * 6) % 6;
@@ -77,7 +77,7 @@ void query(benchmark::State& state) {
     index_grid.build(
         ends.size(), r, [&](std::size_t i) { return std::optional(ends[i].position); },
         [](std::size_t i) { return std::uint32_t(i); });
-  const auto queries = light_ends(65536);
+  const auto queries = light_ends(65536, 2);  // other points than the items
   std::size_t q = 0;
   std::uint64_t found = 0, sum = 0;
   for (auto _ : state) {

@@ -7,6 +7,8 @@
 //    about fourfold when the radius halves;
 //  - the same seed gives the same image, bit for bit, serially and on two threads.
 #include <segpath/algorithms/vcm.hpp>
+#include <segpath/materials/lambertian.hpp>
+#include <segpath/materials/mirror.hpp>
 #include <segpath/sensors/pinhole_camera.hpp>
 #include <segpath/testing/integrate.hpp>
 #include <segpath/testing/lit_plane.hpp>
@@ -285,6 +287,70 @@ TEMPLATE_TEST_CASE("PPM, BPM and VCM are exact in the sphere furnace", "[algorit
       CHECK_FALSE(testing::student_t_test(mean, expected).rejects(alpha));
       CHECK(testing::student_t_test(mean, 1.03 * expected).rejects(alpha));  // the test has power
     }
+}
+
+namespace {
+/// The sphere furnace with a material of both kinds of lobe: a mirror of reflectance `mirror`
+/// and a Lambertian lobe of albedo albedo_mean - mirror, picked by u_lobe in proportion to
+/// their albedos. It says it is not delta-only (is_delta), as a user's coated material would.
+template <Real T>
+class MixedSphere : public Pinhole<testing::SphereInterior<T>> {
+ public:
+  using Base = Pinhole<testing::SphereInterior<T>>;
+  MixedSphere(const PinholeCameraParameters<T>& camera, const testing::SphereInteriorParameters<T>& p, T mirror)
+      : Base(camera, p, std::vector<Vec3<T>>{{0, 0, 1}}), mirror_(mirror) {}
+
+  class Materials {
+   public:
+    Materials(T diffuse, T mirror) : diffuse_(diffuse), mirror_(mirror), p_mirror_(mirror / (diffuse + mirror)) {}
+    [[nodiscard]] T eval(const BsdfQuery<T>& q) const noexcept { return diffuse_.eval(q); }
+    [[nodiscard]] T pdf(const BsdfQuery<T>& q) const noexcept { return (T(1) - p_mirror_) * diffuse_.pdf(q); }
+    [[nodiscard]] std::optional<BsdfSample<T>> sample(const BsdfSampleQuery<T>& q) const noexcept {
+      auto s = q.u_lobe < p_mirror_ ? mirror_.sample(q) : diffuse_.sample(q);
+      if (s) s->pdf *= q.u_lobe < p_mirror_ ? p_mirror_ : T(1) - p_mirror_;
+      return s;
+    }
+    [[nodiscard]] bool is_delta(const SurfacePoint<T>&) const noexcept { return false; }
+
+   private:
+    Lambertian<T> diffuse_;
+    Mirror<T> mirror_;
+    T p_mirror_;
+  };
+  [[nodiscard]] Materials bsdf() const noexcept { return Materials(this->parameters().albedo_mean - mirror_, mirror_); }
+
+ private:
+  T mirror_;
+};
+}  // namespace
+
+TEST_CASE("PPM is exact in the sphere furnace with a material of both delta and non-delta lobes", "[algorithms][stat]") {
+  // PPM gathers wherever the material has a non-delta lobe (is_delta false) and follows a
+  // sampled mirror lobe on; gathering only where the sampled lobe is not a delta (or stopping
+  // at the first gather) would lose the share of the other lobe. Uniform emission E and albedo
+  // a (mirror 0.3 + diffuse 0.3): every bounce multiplies by a, L = E (1 + a + ... + a^4).
+  using T = double;
+  testing::SphereInteriorParameters<T> sp;
+  sp.radius = 1;
+  sp.emission_mean = 1;
+  sp.albedo_mean = T(0.6);
+  const MixedSphere<T> scene(camera<T>({T(0.2), T(-0.1), 0}, {0, 0, 1}, {1, 0, 0}, {0, 1, 0}, 3, 3, T(80)), sp, T(0.3));
+  const std::size_t max_length = 5;
+  double expected = 0;
+  for (unsigned b = 0; b < max_length; ++b) expected += std::pow(0.6, double(b));
+  const double alpha = testing::sidak_alpha(0.01, 2 * 2);
+  for (const std::size_t roulette_from : {std::size_t(0), std::size_t(1)}) {
+    VcmOptions o = options(VcmMode::ppm, max_length, 0.1, 40, 9);
+    o.roulette_from = roulette_from;
+    const VertexConnectionMerging<MixedSphere<T>> method(o);
+    DropCounters drops;
+    const auto stats = run<MixedSphere<T>, T>(method, scene, 800, drops, 0.1);
+    const auto& mean = stats.back();
+    INFO("roulette from " << roulette_from << ": " << mean.mean() << " +- " << mean.standard_error() << " vs " << expected);
+    CHECK(drops.total() == 0);
+    CHECK_FALSE(testing::student_t_test(mean, expected).rejects(alpha));
+    CHECK(testing::student_t_test(mean, 1.03 * expected).rejects(alpha));  // the test has power
+  }
 }
 
 TEST_CASE("PPM and BPM are consistent under the point light: bias of the disk average, about r^2", "[algorithms][stat]") {

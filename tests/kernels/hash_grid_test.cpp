@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 #include <vector>
 
 #include "support/catch.hpp"
@@ -111,4 +112,30 @@ TEST_CASE("the hash grid's items and visiting order do not depend on the paralle
       CHECK(a == expected);
     }
   }
+}
+
+TEST_CASE("a hash grid build that fails leaves an empty grid", "[kernels]") {
+  using T = float;
+  HashGrid<T> grid;
+  std::vector<Vec3<T>> points(10, Vec3<T>(0));
+  const auto position_of = [&](std::size_t i) { return std::optional(points[i % points.size()]); };
+  const auto item_of = [](std::size_t i) { return std::uint32_t(i); };
+  grid.build(points.size(), T(0.1), position_of, item_of);
+  CHECK(grid.size() == 10);
+  // More sources than the 32-bit bucket arithmetic allows: refused before reading any (a
+  // source read at all fails the check quickly with another exception).
+  const auto never_read = [](std::size_t) -> std::optional<Vec3<T>> { throw std::runtime_error("a source was read"); };
+  CHECK_THROWS_AS(grid.build((std::size_t(1) << 31) + 1, T(0.1), never_read, item_of), std::length_error);
+  CHECK(grid.size() == 0);
+  // A source that throws half-way: nothing of the earlier build is left to query.
+  grid.build(points.size(), T(0.1), position_of, item_of);
+  const auto throwing = [&](std::size_t i) -> std::optional<Vec3<T>> {
+    if (i == 1500) throw std::runtime_error("source 1500");
+    return Vec3<T>(T(i % 7) * T(0.01));
+  };
+  CHECK_THROWS_AS(grid.build(2000, T(0.1), throwing, item_of), std::runtime_error);
+  CHECK(grid.size() == 0);
+  int calls = 0;
+  grid.for_each_within(Vec3<T>(0), [&](std::uint32_t, const Vec3<T>&) { ++calls; });
+  CHECK(calls == 0);
 }

@@ -54,7 +54,9 @@ namespace segpath {
 /// scattering); a `direction` light end is taken as a Dirac (a sun) when the emitter gives no
 /// emission density to a direction 1e-3 away from it, which is exact for one distant emitter
 /// per LightSet; a material whose sampled lobe was a delta is treated as specular at that end
-/// (exact for purely specular or purely non-specular materials). Paths of one segment (the
+/// (exact for purely specular or purely non-specular materials; ppm with a BSDF that has
+/// `is_delta` is exact for mixed ones too: it gathers wherever the material has a non-delta lobe
+/// and follows a sampled delta lobe on). Paths of one segment (the
 /// sensor seeing an emitter) are left to the camera subpath alone, as in SmallVCM.
 /// Scratch storage lives in the object and is reused across iterations: one render_iteration
 /// at a time per object.
@@ -223,7 +225,9 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
       if (v.point.kind != PointKind::surface) break;
       const auto next = light_next_.sample(scene, {segment, direction}, rng);
       if (!next) break;
-      v.specular = next->delta;
+      // ppm stores a photon wherever its camera ends gather (ppm_gathers), whichever lobe the
+      // light subpath goes on through.
+      v.specular = it.ppm ? !ppm_gathers(scene, v.point, next) : next->delta;
       if (!it.ppm) {  // ppm's merges are unweighted: no MIS state to carry
         if (!scatter_light(scene, it, state, v, -next->direction, next->delta)) break;
         if (!arrive(it, state, v.point, next->segment.x, next->direction)) break;
@@ -323,11 +327,20 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     return a && b && a->direction != b->direction;
   }
 
-  /// Whether the BSDF says the point has no delta lobe (HasIsDelta): ppm then gathers there
-  /// without sampling the next lobe (the same choice under the class's assumption on materials).
-  [[nodiscard]] static bool known_non_delta(const Scn& scene, const SurfacePoint<T>& p) noexcept {
-    if constexpr (HasIsDelta<std::remove_cvref_t<decltype(scene.bsdf())>, S>) return !scene.bsdf().is_delta(p);
+  /// Whether the BSDF says the point is Lambertian (HasLambertianAlbedo), so it has no delta
+  /// lobe: ppm gathers there without sampling (and tracing) a next segment it would not follow.
+  [[nodiscard]] static bool has_no_delta_lobe(const Scn& scene, const SurfacePoint<T>& p) noexcept {
+    if constexpr (HasLambertianAlbedo<std::remove_cvref_t<decltype(scene.bsdf())>, S>)
+      return scene.bsdf().lambertian_albedo(p).has_value();
     else return false;
+  }
+  /// Whether ppm gathers at camera end p, whose next segment was sampled as `next`: where the
+  /// BSDF has a non-delta lobe (HasIsDelta; exact for mixed materials too, which ppm then also
+  /// follows through their delta lobes), else where the sampled lobe was not a delta.
+  template <class Next>
+  [[nodiscard]] static bool ppm_gathers(const Scn& scene, const SurfacePoint<T>& p, const Next& next) noexcept {
+    if constexpr (HasIsDelta<std::remove_cvref_t<decltype(scene.bsdf())>, S>) return !scene.bsdf().is_delta(p);
+    else return !(next && next->delta);
   }
 
   static void accumulate(S& total, const S& value, DropCounters& drops) noexcept {
@@ -378,16 +391,15 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
         if (!is_black(emitted)) accumulate(total, throughput * emitted * emission_weight(scene, it, segment.x, v), drops);
       }
       if (escaped || length >= max || segment.y.kind != PointKind::surface) break;
-      if (it.ppm && known_non_delta(scene, v.point)) {  // gathered without tracing the next segment
+      if (it.ppm && has_no_delta_lobe(scene, v.point)) {  // gathered; no lobe to go on through
         merge(scene, it, v, total, drops);
         break;
       }
       const auto next = next_.sample(scene, {segment, direction}, rng);
-      if (!(next && next->delta)) {
-        if (it.ppm) {
-          merge(scene, it, v, total, drops);
-          break;
-        }
+      if (it.ppm) {
+        if (ppm_gathers(scene, v.point, next)) merge(scene, it, v, total, drops);
+        if (!(next && next->delta)) break;
+      } else if (!(next && next->delta)) {
         if (it.connect) {
           if (length + 1 <= max) {
             const Segment<T> at{v.point, v.point};

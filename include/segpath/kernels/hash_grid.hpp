@@ -34,12 +34,14 @@ class HashGrid {
   /// `position_of(i)` is source i's position as std::optional<Vec3<T>> (nullopt: left out) and
   /// `item_of(i)` the Item stored for it. Sources with non-finite positions are left out too.
   /// position_of is called twice per source, item_of once per kept source, both in index order
-  /// within each of `parallel_for`'s tasks; items are staged per thread only one bucket group
-  /// (1/256 of them) at a time. The result does not depend on
-  /// `parallel_for`. Throws std::length_error for 2^32 sources or more.
+  /// within each of `parallel_for`'s tasks. Each thread keeps a buffer the size of the largest
+  /// of 256 bucket groups it sorted (1/256 of the items when they spread over many cells, up to
+  /// all of them when they crowd into one). The result does not depend on
+  /// `parallel_for`. Throws std::length_error for more than 2^31 sources.
   template <class PositionOf, class ItemOf, ParallelFor P = SerialFor>
   void build(std::size_t count, T radius, PositionOf&& position_of, ItemOf&& item_of, const P& parallel_for = {}) {
-    if (count >= std::size_t(skipped)) throw std::length_error("segpath::HashGrid: 2^32 items or more");
+    entries_.clear();  // a build that throws leaves an empty grid
+    if (count > max_sources) throw std::length_error("segpath::HashGrid: more than 2^31 items");
     radius_ = radius;
     radius2_ = radius * radius;
     inv_cell_ = T(1) / (T(2) * radius);
@@ -172,7 +174,8 @@ class HashGrid {
     Vec3<T> position;
     Item item;
   };
-  static constexpr std::uint32_t skipped = ~std::uint32_t(0);
+  static constexpr std::uint32_t skipped = ~std::uint32_t(0);  ///< never a bucket: buckets <= max_sources
+  static constexpr std::size_t max_sources = std::size_t(1) << 31;
   static constexpr unsigned max_group_bits = 8;   ///< at most 256 bucket groups in build()
   static constexpr std::size_t max_chunks = 64;   ///< build()'s chunks of sources
   using Cell = std::array<std::int64_t, 3>;
@@ -203,7 +206,7 @@ class HashGrid {
 
   T radius_ = 0, radius2_ = 0, inv_cell_ = 0;
   std::size_t mask_ = 0;
-  std::vector<std::uint32_t> bucket_start_;      ///< (< 2^32 items, checked by build)
+  std::vector<std::uint32_t> bucket_start_;      ///< (at most 2^31 items, checked by build)
   std::vector<std::uint32_t> source_bucket_;     ///< build: per source, its bucket or skipped
   std::vector<std::uint32_t> chunk_group_next_;  ///< build: per chunk and group, a count, then a cursor
   std::vector<std::uint32_t> group_start_;       ///< build: per group, its first entry

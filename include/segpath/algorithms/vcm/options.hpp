@@ -15,7 +15,9 @@ namespace segpath {
 ///  - bdpt: every connection (s, t): camera paths reaching emitters, next-event bridges, bridges
 ///    between subpath ends, light subpaths bridged to the sensor (t = 1);
 ///  - ppm: camera paths go through delta scattering to their first non-delta end and gather
-///    the light-subpath ends (photons) there with the disk kernel, unweighted;
+///    the light-subpath ends (photons) there with the disk kernel, unweighted (a material with
+///    both kinds of lobe: see VertexConnectionMerging's assumptions); light subpaths carry no
+///    MIS state;
 ///  - bpm: gathering at every non-delta camera end, MIS over those merging techniques;
 ///  - vcm: the union of bdpt's and bpm's techniques under one MIS (UPS).
 enum class VcmMode : std::uint8_t { bdpt, ppm, bpm, vcm };
