@@ -167,6 +167,21 @@ VcmOptions options(VcmMode mode, std::size_t max_length, double radius, double f
   return o;
 }
 
+/// The sphere furnace of the PPM, BPM and VCM tests: unit radius, uniform emission 1 and albedo 0.6.
+template <class T>
+testing::SphereInteriorParameters<T> furnace() {
+  testing::SphereInteriorParameters<T> sp;
+  sp.radius = 1;
+  sp.emission_mean = 1;
+  sp.albedo_mean = T(0.6);
+  return sp;
+}
+/// Its 3 x 3 pinhole inside, looking at the wall through 80 degrees.
+template <class T>
+PinholeCameraParameters<T> furnace_camera() {
+  return camera<T>({T(0.2), T(-0.1), 0}, {0, 0, 1}, {1, 0, 0}, {0, 1, 0}, 3, 3, T(80));
+}
+
 }  // namespace
 
 TEMPLATE_TEST_CASE("BDPT is unbiased through a pinhole over the lit planes and inside the sphere", "[algorithms][stat]",
@@ -262,11 +277,8 @@ TEMPLATE_TEST_CASE("PPM, BPM and VCM are exact in the sphere furnace", "[algorit
   // of a point form a cap of area exactly pi r^2 (Archimedes), so the disk kernel's estimate
   // is exact up to the photons that arrive within ~r/R of a camera end's tangent plane.
   using T = TestType;
-  testing::SphereInteriorParameters<T> sp;
-  sp.radius = 1;
-  sp.emission_mean = 1;
-  sp.albedo_mean = T(0.6);
-  const auto inside = camera<T>({T(0.2), T(-0.1), 0}, {0, 0, 1}, {1, 0, 0}, {0, 1, 0}, 3, 3, T(80));
+  const auto sp = furnace<T>();
+  const auto inside = furnace_camera<T>();
   using Scn = Pinhole<testing::SphereInterior<T>>;
   const Scn scene(inside, sp, std::vector<Vec3<T>>{{0, 0, 1}});
   const std::size_t max_length = 5;
@@ -330,11 +342,8 @@ TEST_CASE("PPM is exact in the sphere furnace with a material of both delta and 
   // at the first gather) would lose the share of the other lobe. Uniform emission E and albedo
   // a (mirror 0.3 + diffuse 0.3): every bounce multiplies by a, L = E (1 + a + ... + a^4).
   using T = double;
-  testing::SphereInteriorParameters<T> sp;
-  sp.radius = 1;
-  sp.emission_mean = 1;
-  sp.albedo_mean = T(0.6);
-  const MixedSphere<T> scene(camera<T>({T(0.2), T(-0.1), 0}, {0, 0, 1}, {1, 0, 0}, {0, 1, 0}, 3, 3, T(80)), sp, T(0.3));
+  const auto sp = furnace<T>();
+  const MixedSphere<T> scene(furnace_camera<T>(), sp, T(0.3));
   const std::size_t max_length = 5;
   double expected = 0;
   for (unsigned b = 0; b < max_length; ++b) expected += std::pow(0.6, double(b));
@@ -426,11 +435,8 @@ TEMPLATE_TEST_CASE("every mode gives the same image for a seed serially and on t
 // so deterministic). It catches a weight off by a constant factor, not small biases.
 TEST_CASE("BDPT, PPM, BPM and VCM: a fast sphere-furnace check for the sanitizer run", "[algorithms][vcm]") {
   using T = double;
-  testing::SphereInteriorParameters<T> sp;
-  sp.radius = 1;
-  sp.emission_mean = 1;
-  sp.albedo_mean = T(0.6);
-  const auto inside = camera<T>({T(0.2), T(-0.1), 0}, {0, 0, 1}, {1, 0, 0}, {0, 1, 0}, 3, 3, T(80));
+  const auto sp = furnace<T>();
+  const auto inside = furnace_camera<T>();
   using Scn = Pinhole<testing::SphereInterior<T>>;
   const Scn scene(inside, sp, std::vector<Vec3<T>>{{0, 0, 1}});
   const std::size_t max_length = 4;
