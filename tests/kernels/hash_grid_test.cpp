@@ -135,6 +135,14 @@ TEST_CASE("a hash grid build that fails leaves an empty grid", "[kernels]") {
   };
   CHECK_THROWS_AS(grid.build(2000, T(0.1), throwing, item_of), std::runtime_error);
   CHECK(grid.size() == 0);
+  // An item that throws (the second pass, after the entries were sized): the same.
+  grid.build(points.size(), T(0.1), position_of, item_of);
+  const auto throwing_item = [](std::size_t i) -> std::uint32_t {
+    if (i == 1500) throw std::runtime_error("item 1500");
+    return std::uint32_t(i);
+  };
+  CHECK_THROWS_AS(grid.build(2000, T(0.1), position_of, throwing_item), std::runtime_error);
+  CHECK(grid.size() == 0);
   int calls = 0;
   grid.for_each_within(Vec3<T>(0), [&](std::uint32_t, const Vec3<T>&) { ++calls; });
   CHECK(calls == 0);

@@ -40,8 +40,65 @@ class HashGrid {
   /// `parallel_for`. Throws std::length_error for more than 2^31 sources.
   template <class PositionOf, class ItemOf, ParallelFor P = SerialFor>
   void build(std::size_t count, T radius, PositionOf&& position_of, ItemOf&& item_of, const P& parallel_for = {}) {
-    entries_.clear();  // a build that throws leaves an empty grid
+    entries_.clear();
     if (count > max_sources) throw std::length_error("segpath::HashGrid: more than 2^31 items");
+    try {
+      sort_into_buckets(count, radius, position_of, item_of, parallel_for);
+    } catch (...) {
+      entries_.clear();  // a build that throws leaves an empty grid
+      throw;
+    }
+  }
+
+  /// Builds the grid over `items` (each its own Item), at positions `position_of(item)`.
+  template <class PositionOf, ParallelFor P = SerialFor>
+  void build(std::span<const Item> items, T radius, PositionOf&& position_of, const P& parallel_for = {}) {
+    build(
+        items.size(), radius, [&](std::size_t i) { return std::optional<Vec3<T>>(position_of(items[i])); },
+        [&](std::size_t i) -> const Item& { return items[i]; }, parallel_for);
+  }
+
+  [[nodiscard]] std::size_t size() const noexcept { return entries_.size(); }
+  [[nodiscard]] T radius() const noexcept { return radius_; }
+
+  /// Calls f(item, position) for every item with |position - p| < radius (item: const Item&).
+  template <class F>
+  void for_each_within(const Vec3<T>& p, F&& f) const noexcept(noexcept(f(std::declval<const Item&>(), p))) {
+    if (entries_.empty() || !is_finite(p)) return;
+    const auto lo = cell_of(p - Vec3<T>(radius_));
+    const auto hi = cell_of(p + Vec3<T>(radius_));
+    if (!lo || !hi) return;
+    // The (at most 8) buckets first, then their ranges, then their items: each stage's loads are
+    // independent of each other, so their cache misses overlap instead of queueing.
+    std::array<std::size_t, 8> visited{};
+    std::size_t count = 0;
+    for (std::int64_t z = (*lo)[2]; z <= (*hi)[2]; ++z)
+      for (std::int64_t y = (*lo)[1]; y <= (*hi)[1]; ++y)
+        for (std::int64_t x = (*lo)[0]; x <= (*hi)[0]; ++x) {
+          const std::size_t b = bucket({x, y, z});
+          bool seen = false;
+          for (std::size_t i = 0; i < count; ++i) seen = seen || visited[i] == b;
+          if (seen || count == visited.size()) continue;
+          visited[count++] = b;
+          prefetch(&bucket_start_[b]);
+        }
+    std::array<std::uint32_t, 8> begin{}, end{};
+    for (std::size_t k = 0; k < count; ++k) {
+      begin[k] = bucket_start_[visited[k]];
+      end[k] = bucket_start_[visited[k] + 1];
+      if (begin[k] != end[k]) prefetch(&entries_[begin[k]]);
+    }
+    for (std::size_t k = 0; k < count; ++k)
+      for (std::size_t i = begin[k]; i < end[k]; ++i) {
+        const Vec3<T> d = entries_[i].position - p;
+        if (glm::dot(d, d) < radius2_) f(entries_[i].item, entries_[i].position);
+      }
+  }
+
+ private:
+  /// build()'s work (see there).
+  template <class PositionOf, class ItemOf, ParallelFor P>
+  void sort_into_buckets(std::size_t count, T radius, PositionOf& position_of, ItemOf& item_of, const P& parallel_for) {
     radius_ = radius;
     radius2_ = radius * radius;
     inv_cell_ = T(1) / (T(2) * radius);
@@ -124,52 +181,6 @@ class HashGrid {
     });
   }
 
-  /// Builds the grid over `items` (each its own Item), at positions `position_of(item)`.
-  template <class PositionOf, ParallelFor P = SerialFor>
-  void build(std::span<const Item> items, T radius, PositionOf&& position_of, const P& parallel_for = {}) {
-    build(
-        items.size(), radius, [&](std::size_t i) { return std::optional<Vec3<T>>(position_of(items[i])); },
-        [&](std::size_t i) -> const Item& { return items[i]; }, parallel_for);
-  }
-
-  [[nodiscard]] std::size_t size() const noexcept { return entries_.size(); }
-  [[nodiscard]] T radius() const noexcept { return radius_; }
-
-  /// Calls f(item, position) for every item with |position - p| < radius (item: const Item&).
-  template <class F>
-  void for_each_within(const Vec3<T>& p, F&& f) const noexcept(noexcept(f(std::declval<const Item&>(), p))) {
-    if (entries_.empty() || !is_finite(p)) return;
-    const auto lo = cell_of(p - Vec3<T>(radius_));
-    const auto hi = cell_of(p + Vec3<T>(radius_));
-    if (!lo || !hi) return;
-    // The (at most 8) buckets first, then their ranges, then their items: each stage's loads are
-    // independent of each other, so their cache misses overlap instead of queueing.
-    std::array<std::size_t, 8> visited{};
-    std::size_t count = 0;
-    for (std::int64_t z = (*lo)[2]; z <= (*hi)[2]; ++z)
-      for (std::int64_t y = (*lo)[1]; y <= (*hi)[1]; ++y)
-        for (std::int64_t x = (*lo)[0]; x <= (*hi)[0]; ++x) {
-          const std::size_t b = bucket({x, y, z});
-          bool seen = false;
-          for (std::size_t i = 0; i < count; ++i) seen = seen || visited[i] == b;
-          if (seen || count == visited.size()) continue;
-          visited[count++] = b;
-          prefetch(&bucket_start_[b]);
-        }
-    std::array<std::uint32_t, 8> begin{}, end{};
-    for (std::size_t k = 0; k < count; ++k) {
-      begin[k] = bucket_start_[visited[k]];
-      end[k] = bucket_start_[visited[k] + 1];
-      if (begin[k] != end[k]) prefetch(&entries_[begin[k]]);
-    }
-    for (std::size_t k = 0; k < count; ++k)
-      for (std::size_t i = begin[k]; i < end[k]; ++i) {
-        const Vec3<T> d = entries_[i].position - p;
-        if (glm::dot(d, d) < radius2_) f(entries_[i].item, entries_[i].position);
-      }
-  }
-
- private:
   struct Entry {
     Vec3<T> position;
     Item item;
