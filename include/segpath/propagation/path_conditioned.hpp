@@ -80,6 +80,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <ranges>
 #include <span>
@@ -151,6 +152,37 @@ ConditionedValues<S> conditioned_emission(const ConditionedInputs<S, Link, Light
   v.u[e] = in.emitted[s];
   v.w[e] = in.density[s] > T(0) ? in.emitted[s] * (T(1) / in.density[s]) : S(T(0));
   return v;
+}
+
+/// conditioned_emission kept per ending slot in 16 bytes (float) instead of four spectra.
+template <Spectrum S>
+struct ConditionedEmission {
+  S emitted{spectrum_scalar_t<S>(0)};
+  /// 1 / D(s) (0 where D(s) = 0), negated (its sign bit set) in state e = 1, D_l(s) > 0.
+  spectrum_scalar_t<S> signed_inverse_density = 0;
+
+  [[nodiscard]] ConditionedValues<S> values() const noexcept {
+    using T = spectrum_scalar_t<S>;
+    const T inverse_density = std::abs(signed_inverse_density);
+    const S w = inverse_density > T(0) ? emitted * inverse_density : S(T(0));
+    // Constant indices: a value indexed by e would keep a sweep's accumulator in memory.
+    ConditionedValues<S> v;
+    if (std::signbit(signed_inverse_density)) {
+      v.u[1] = emitted;
+      v.w[1] = w;
+    } else {
+      v.u[0] = emitted;
+      v.w[0] = w;
+    }
+    return v;
+  }
+};
+
+template <Spectrum S, class Link, class LightPair>
+ConditionedEmission<S> compact_emission(const ConditionedInputs<S, Link, LightPair>& in, std::size_t s) noexcept {
+  using T = spectrum_scalar_t<S>;
+  const T inverse_density = in.density[s] > T(0) ? T(1) / in.density[s] : T(0);
+  return {in.emitted[s], in.light_density[s] > T(0) ? -inverse_density : inverse_density};
 }
 
 /// 1 / D_lt(s') where s' is read forced (a light technique sample), else 0.
@@ -272,15 +304,15 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 /// number of threads. Over clusters everything is kept per slot in group order, so an iteration
 /// reads the values of each s' at random once per starting slot and the rest in order; over
 /// disks what is read of a start is kept per segment and read at random (StartRecords).
-/// Memory: four ConditionedValues (emission, two iterations, start) and 32 bytes (float) per
-/// segment.
+/// Memory: two ConditionedValues (the values, updated in place, and a start's gathered copy),
+/// the emission in 16 bytes and 32 bytes (float) per segment.
 ///
 /// `factorised[g]` (optional, one per group; J::factorisable supports only) marks groups where
 /// link(s, s') = diffuse[s] for every s ending and s' starting there and light_pair(s, s') is
 /// the same for every s' with conditioned_potential (Lambertian ends and starts with one
 /// normal): their junctions are summed per flag class of s' (three classes), O(#ending +
-/// #starting) instead of the product; each ending slot then keeps its three class junctions
-/// (3 x 24 bytes for Rgb<float>).
+/// #starting) instead of the product; each of their ending slots then keeps its three class
+/// junctions (3 x 24 bytes for Rgb<float>).
 ///
 /// `junction_cache_bytes`: the general groups whose ConditionedJunction table (a PairTable, one
 /// sizeof(detail::ConditionedJunction<S>) per pair) fits in this budget, in group order, call
@@ -304,26 +336,38 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
   const StartRecords<J> record(support);
   // Everything per slot (or start record), in group order: an iteration reads the values of s'
   // at random once per record and the rest in order.
+  // One set of values per ending slot, updated in place: a sweep reads the previous iteration's
+  // values only through `starting_values`, gathered before it starts.
   std::vector<detail::ConditionedEnd<T>> end(ending_slots);
-  std::vector<ConditionedValues<S>> emission(ending_slots), current, next(ending_slots), starting_values(record.size());
+  std::vector<detail::ConditionedEmission<S>> emission(ending_slots);
+  std::vector<ConditionedValues<S>> current(ending_slots), starting_values(record.size());
   std::vector<detail::ConditionedStart<T>> start(record.size());
-  std::vector<S> ending_diffuse(has_factorisation ? ending_slots : 0);
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     const std::uint32_t s = ending_segment[i];
     end[i] = detail::conditioned_end(in, s);
-    emission[i] = detail::conditioned_emission(in, s);
-    if (has_factorisation) ending_diffuse[i] = diffuse[s];
+    emission[i] = detail::compact_emission(in, s);
+    current[i] = emission[i].values();
   });
+  auto emission_values = [&](std::uint32_t i) { return emission[i].values(); };
   for_blocks(record.size(), parallel_for, [&](std::size_t r) {
     const std::uint32_t sp = record.segment(r);
     start[r] = {in.geometry[sp], detail::conditioned_forced_weight(in, sp), support.ending_slot_of(sp), in.flags[sp]};
   });
   // Classes of s' in a factorised group: 0 not a potential light technique, 1 potential,
   // 2 light technique sample. There q_l(s | s') is the same for every potential s', so each
-  // ending slot has three junctions, one per class, fixed for the whole propagation.
-  std::vector<std::array<Junction, 3>> class_junction(has_factorisation ? ending_slots : 0);
+  // ending slot of a factorised group has three junctions, one per class, fixed for the whole
+  // propagation; those of group g from class_offset[g] on.
+  std::vector<std::uint32_t> class_offset;
+  std::vector<std::array<Junction, 3>> class_junction;
   if constexpr (J::factorisable) {
     if (has_factorisation) {
+      class_offset.resize(factorised.size());
+      std::size_t factorised_slots = 0;
+      for (std::size_t g = 0; g < factorised.size(); ++g) {
+        class_offset[g] = std::uint32_t(factorised_slots);
+        if (factorised[g]) factorised_slots += support.ending_slots(g).end - support.ending_slots(g).begin;
+      }
+      class_junction.resize(factorised_slots);
       detail::for_groups(support, parallel_for, [&](std::size_t g) {
         if (!factorised[g]) return;
         constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
@@ -335,9 +379,9 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
             representative = starting_segment[j];
         for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
           const T ql = representative == no_cluster ? T(0) : T(in.light_pair(ending_segment[i], representative));
-          const S transfer = ending_diffuse[i] * support.kernel(g);
+          const S transfer = diffuse[ending_segment[i]] * support.kernel(g);
           for (int k_class = 0; k_class < 3; ++k_class)
-            class_junction[i][k_class] =
+            class_junction[class_offset[g] + (i - ending.begin)][k_class] =
                 detail::conditioned_coefficients(end[i], class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0));
         }
       });
@@ -389,7 +433,6 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
       if (const std::uint16_t p = in.pieces[ending_segment[i]]; p > 1) end_watch[i] = lagged.watch(std::uint32_t(i), p);
     lagged.allocate();
   }
-  current = emission;
   for (int k = 0; k < iterations; ++k) {
     for_blocks(record.size(), parallel_for, [&](std::size_t r) {
       const std::uint32_t i = start[r].source;
@@ -400,9 +443,9 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
       } else if (i == no_cluster) {
         starting_values[r] = detail::conditioned_emission(in, sp);
       } else if (depth == 1 || start_watch[r] == detail::no_watch) {
-        starting_values[r] = b == 0 ? emission[i] : current[i];
+        starting_values[r] = b == 0 ? emission_values(i) : current[i];
       } else {
-        starting_values[r] = b == 0 ? emission[i] : lagged.at(start_watch[r], b);
+        starting_values[r] = b == 0 ? emission_values(i) : lagged.at(start_watch[r], b);
       }
     });
     detail::for_groups(support, parallel_for, [&](std::size_t g) {
@@ -425,22 +468,23 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
             return sum;
           };
           auto values_of = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
-            ConditionedValues<S> acc = emission[i];
-            for (int k_class = 0; k_class < 3; ++k_class) detail::apply_junction(class_junction[i][k_class], sum[k_class], acc);
+            ConditionedValues<S> acc = emission_values(i);
+            const std::array<Junction, 3>& junctions = class_junction[class_offset[g] + (i - ending.begin)];
+            for (int k_class = 0; k_class < 3; ++k_class) detail::apply_junction(junctions[k_class], sum[k_class], acc);
             return acc;
           };
           const std::array<ConditionedValues<S>, 3> all = class_sums(no_cluster);
-          for (std::uint32_t i = ending.begin; i < ending.end; ++i) next[i] = values_of(i, all);
+          for (std::uint32_t i = ending.begin; i < ending.end; ++i) current[i] = values_of(i, all);
           // A segment starting here too does not join itself (propagation/propagate.hpp): its
           // sums again without its own start, summed afresh (no cancellation of a dominant term).
           for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-            if (const std::uint32_t i = start[record(j)].source; ending.contains(i)) next[i] = values_of(i, class_sums(j));
+            if (const std::uint32_t i = start[record(j)].source; ending.contains(i)) current[i] = values_of(i, class_sums(j));
           return;
         }
       }
       const T kernel = support.kernel(g);
       for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
-        ConditionedValues<S> acc = emission[i];
+        ConditionedValues<S> acc = emission_values(i);
         if (const Junction* row = table.row(i, starting.begin)) {
           for (std::uint32_t j = starting.begin; j < starting.end; ++j, ++row)
             if (joins(i, j)) detail::apply_junction(*row, starting_values[record(j)], acc);
@@ -448,10 +492,9 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
           for (std::uint32_t j = starting.begin; j < starting.end; ++j)
             if (joins(i, j)) detail::apply_junction(junction(i, j, kernel), starting_values[record(j)], acc);
         }
-        next[i] = acc;
+        current[i] = acc;
       }
     });
-    std::swap(current, next);
     if (depth > 1) lagged.keep(k + 1, std::span<const ConditionedValues<S>>(current), parallel_for);
   }
   // Segments whose y end is in no group keep their emission; each segment's value is over
