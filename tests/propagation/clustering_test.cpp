@@ -93,6 +93,7 @@ TEMPLATE_TEST_CASE("clusters are exactly the runs of equal endpoint keys", "[pro
   segments.push_back({SurfacePoint<T>::at_point({1, 1, 1}), segments[0].y});  // a sensor end joins no cluster
   const auto grid = VoxelGrid<T>::jittered(T(0.7), 1, 1);
   Clustering<T> clustering;
+  clustering.keep_refs(true);
   clustering.build(grid, segments);
 
   // Reference: group endpoints by key with a map.
@@ -131,6 +132,7 @@ TEMPLATE_TEST_CASE("slots number each end's refs in cluster order", "[propagatio
     segments.push_back({point(), point()});
   }
   Clustering<T> clustering;
+  clustering.keep_refs(true);
   clustering.build(VoxelGrid<T>(T(0.4)), segments);
   const auto refs = clustering.refs();
   std::size_t starting = 0, ending = 0;
@@ -155,6 +157,23 @@ TEMPLATE_TEST_CASE("slots number each end's refs in cluster order", "[propagatio
     CHECK((clustering.ending_slot_of(s) == no_cluster) == (seen[s] == 0));
     CHECK((clustering.ending_slot_of(s) == no_cluster) == (clustering.cluster_of_y(s) == no_cluster));
   }
+  // A cluster's segments by slot are its refs' segments, in ref order.
+  for (std::size_t c = 0; c < clustering.clusters().size(); ++c) {
+    const Cluster<T>& cl = clustering.clusters()[c];
+    const auto starts = clustering.starting_segments(c), ends = clustering.ending_segments(c);
+    REQUIRE(starts.size() == cl.starting_count());
+    REQUIRE(ends.size() == cl.ending_count());
+    for (std::uint32_t r = cl.begin; r < cl.middle; ++r) CHECK(starts[r - cl.begin] == refs[r].segment);
+    for (std::uint32_t r = cl.middle; r < cl.end; ++r) CHECK(ends[r - cl.middle] == refs[r].segment);
+  }
+  // By default the refs are released after build and nothing else changes.
+  Clustering<T> lean;
+  lean.build(VoxelGrid<T>(T(0.4)), segments);
+  CHECK(lean.refs().empty());
+  CHECK(lean.bytes_per_segment() + 2 * sizeof(EndpointRef) <= clustering.bytes_per_segment());
+  CHECK(lean.ending_slot_count() == clustering.ending_slot_count());
+  CHECK(std::ranges::equal(lean.starting_segments(), clustering.starting_segments()));
+  CHECK(std::ranges::equal(lean.ending_segments(), clustering.ending_segments()));
 }
 
 TEMPLATE_TEST_CASE("radix-sorted clusters equal std::sort's, with 1 or 2 threads", "[propagation]", float, double) {
@@ -182,6 +201,9 @@ TEMPLATE_TEST_CASE("radix-sorted clusters equal std::sort's, with 1 or 2 threads
       const auto segments = random_pool<T>(k.n, k.offset, k.extent, k.non_surface, k.duplicate, 11 + k.n);
       const VoxelGrid<T> grid(k.cell, Vec3<T>(T(0.3), T(0.6), T(0.1)));
       Clustering<T> serial, threaded, comparison;
+      serial.keep_refs(true);
+      threaded.keep_refs(true);
+      comparison.keep_refs(true);
       serial.build(grid, segments);
       threaded.build(grid, std::span<const Segment<T>>(segments), [](const SurfacePoint<T>& p) { return p.position; },
                      segpath::testing::TwoThreadFor{});
@@ -220,6 +242,7 @@ TEST_CASE("the radix order is checked: an order without the end tie-break is rej
   const auto segments = random_pool<double>(3000, 0.0, 1.0, 0.05, 0.6, 5);
   const VoxelGrid<double> grid(0.25);
   Clustering<double> clustering;
+  clustering.keep_refs(true);
   clustering.build(grid, segments);
   // Sorting by key alone, stably, keeps generation order (x and y ends interleaved): not the
   // clustering's order, which puts every cluster's starting refs first.

@@ -165,8 +165,8 @@ Neighbourhoods neighbourhoods(const RandomSides& p, bool disk, Pcg32& rng) {
     const std::uint32_t c = h.clustering.cluster_of_y(s);
     if (c == no_cluster) continue;
     const Cluster<double>& cl = h.clustering.clusters()[c];
-    for (std::uint32_t r = cl.begin; r < cl.middle; ++r)
-      if (h.clustering.refs()[r].segment != s) h.near[s].push_back(h.clustering.refs()[r].segment);  // never itself
+    for (const std::uint32_t sp : h.clustering.starting_segments(c))
+      if (sp != s) h.near[s].push_back(sp);  // never itself
     h.self_joined += h.clustering.cluster_of_x(s) == c;
     h.kernel[s] = cl.kernel;
   }
@@ -324,16 +324,15 @@ TEST_CASE("path-conditioned propagation: factorised clusters give the general su
       light_of[s] = rng.uniform<double>() < 0.2 ? 0.0 : rng.uniform<double>();
       const std::uint32_t c = clustering.cluster_of_y(s);
       if (c == no_cluster) continue;
-      const Cluster<double>& cl = clustering.clusters()[c];
-      for (std::uint32_t r = cl.begin; r < cl.middle; ++r)
-        if (clustering.refs()[r].segment != s) near[s].push_back(clustering.refs()[r].segment);
+      for (const std::uint32_t sp : clustering.starting_segments(c))
+        if (sp != s) near[s].push_back(sp);
       self_joined += factorised[c] && clustering.cluster_of_x(s) == c;
       if (!factorised[c]) continue;
-      for (std::uint32_t r = cl.begin; r < cl.middle; ++r) {  // every start, s itself too (the contract)
-        p.link_table[s * p.n + clustering.refs()[r].segment] = diffuse[s];
-        p.light_table[s * p.n + clustering.refs()[r].segment] = light_of[s];
+      for (const std::uint32_t sp : clustering.starting_segments(c)) {  // every start, s itself too (the contract)
+        p.link_table[s * p.n + sp] = diffuse[s];
+        p.light_table[s * p.n + sp] = light_of[s];
       }
-      factorised_clusters += s == clustering.refs()[cl.middle].segment;
+      factorised_clusters += s == clustering.ending_segments(c).front();
     }
     finish_densities(p, rng, [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; });
     const auto inputs = p.inputs();

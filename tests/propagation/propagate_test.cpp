@@ -208,8 +208,7 @@ double budgeted_radiance(const Clustering<double>& clustering, const RandomPool&
   if (c == no_cluster) return value;
   const Cluster<double>& cluster = clustering.clusters()[c];
   double sum = 0;
-  for (std::uint32_t q = cluster.begin; q < cluster.middle; ++q) {
-    const std::uint32_t sp = clustering.refs()[q].segment;
+  for (const std::uint32_t sp : clustering.starting_segments(c)) {
     if (sp == s || budget - int(pieces[sp]) < 0) continue;
     sum += pool.link_table[s * pool.n + sp] * pool.weighted_geometry[sp] * budgeted_radiance(clustering, pool, pieces, sp, budget - pieces[sp]);
   }

@@ -443,8 +443,8 @@ TEST_CASE("BDPF on box 1: clusters with next-event ends on the black emitter fac
   for (std::size_t c = 0; c < clustering.clusters().size(); ++c) {
     const auto& cl = clustering.clusters()[c];
     bool black_end = false, other_end = false;
-    for (std::uint32_t q = cl.middle; q < cl.end; ++q) {
-      const auto albedo = bsdf.lambertian_albedo(pool.segments[clustering.refs()[q].segment].y);
+    for (const std::uint32_t s : clustering.ending_segments(c)) {
+      const auto albedo = bsdf.lambertian_albedo(pool.segments[s].y);
       (albedo && segpath::is_black(*albedo) ? black_end : other_end) = true;
     }
     if (!black_end || other_end || cl.begin == cl.middle) continue;  // clusters of emitter ends only

@@ -26,10 +26,8 @@ template <Spectrum S, class Link>
   const std::uint32_t c = clustering.cluster_of_y(s);
   if (depth == 0 || c == no_cluster) return value;
   const Cluster<T>& cluster = clustering.clusters()[c];
-  const auto refs = clustering.refs();
   S sum(T(0));
-  for (std::uint32_t q = cluster.begin; q < cluster.middle; ++q) {
-    const std::uint32_t sp = refs[q].segment;
+  for (const std::uint32_t sp : clustering.starting_segments(c)) {
     if (sp == s) continue;
     sum += link(s, sp) * (recursive_mmis_radiance(clustering, emitted, weighted_geometry, link, sp, depth - 1) *
                           weighted_geometry[sp]);

@@ -98,9 +98,9 @@ std::span<E> radix_sort(std::span<E> data, std::span<E> scratch, unsigned lo, un
 }  // namespace detail
 
 /// The clusters of one iteration, a JunctionSupport (propagation/junction_support.hpp) whose
-/// groups are the clusters. Memory: one EndpointRef per endpoint, three ids per segment
-/// and one per slot, O(#segments); during build only, two 8-byte codes per endpoint (the radix
-/// sort's, allocated once per build). Deterministic: the sort order is a total order, and the
+/// groups are the clusters. Memory: three ids per segment and one per slot, O(#segments);
+/// during build only, one EndpointRef and two 8-byte codes per endpoint (the sort's), the refs
+/// kept after it only on request (keep_refs, for inspection). Deterministic: the sort order is a total order, and the
 /// parallel steps write disjoint outputs.
 template <Real T>
 class Clustering {
@@ -132,6 +132,8 @@ class Clustering {
     sort_refs(parallel_for);
     cut_clusters();
     fill_clusters(grid, segments, canonical, parallel_for);
+    // The slots hold the refs' segments in the same order; only their keys and ends are lost.
+    if (!keep_refs_) std::vector<EndpointRef>().swap(refs_);
   }
 
   void build(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments) {
@@ -144,18 +146,30 @@ class Clustering {
   /// The sort the last build ran.
   [[nodiscard]] EndpointSort last_sort() const noexcept { return last_sort_; }
 
+  /// Keeps the sorted refs after build (refs()); off by default, they cost 48 bytes per segment.
+  void keep_refs(bool on) noexcept { keep_refs_ = on; }
+
   [[nodiscard]] std::span<const Cluster<T>> clusters() const noexcept { return clusters_; }
+  /// The endpoint refs in cluster order, empty unless keep_refs(true) was set before build.
   [[nodiscard]] std::span<const EndpointRef> refs() const noexcept { return refs_; }
   /// The number of starting refs: the size of data kept per starting slot.
   [[nodiscard]] std::size_t starting_slot_count() const noexcept {
     return clusters_.empty() ? 0 : clusters_.back().slot + clusters_.back().starting_count();
   }
   /// The number of ending refs: the size of data kept per ending slot.
-  [[nodiscard]] std::size_t ending_slot_count() const noexcept { return refs_.size() - starting_slot_count(); }
+  [[nodiscard]] std::size_t ending_slot_count() const noexcept { return ending_segment_.size(); }
   /// The segment of every starting (ending) slot: the refs' segments without the keys, in
   /// slot order.
   [[nodiscard]] std::span<const std::uint32_t> starting_segments() const noexcept { return starting_segment_; }
   [[nodiscard]] std::span<const std::uint32_t> ending_segments() const noexcept { return ending_segment_; }
+  /// The segments starting (ending) in cluster c: refs [begin, middle) ([middle, end)).
+  [[nodiscard]] std::span<const std::uint32_t> starting_segments(std::size_t c) const noexcept {
+    return std::span<const std::uint32_t>(starting_segment_).subspan(clusters_[c].slot, clusters_[c].starting_count());
+  }
+  [[nodiscard]] std::span<const std::uint32_t> ending_segments(std::size_t c) const noexcept {
+    const Cluster<T>& cl = clusters_[c];
+    return std::span<const std::uint32_t>(ending_segment_).subspan(cl.ending_slot(cl.middle), cl.ending_count());
+  }
   /// The cluster a segment starts in (its x end), or no_cluster.
   [[nodiscard]] std::uint32_t cluster_of_x(std::uint32_t segment) const noexcept { return cluster_of_x_[segment]; }
   /// The cluster a segment ends in (its y end), or no_cluster.
@@ -340,7 +354,7 @@ class Clustering {
   void fill_clusters(const VoxelGrid<T>& grid, std::span<const Segment<T>> segments, const Canonical& canonical,
                      const P& parallel_for) {
     starting_segment_.resize(starting_slot_count());
-    ending_segment_.resize(ending_slot_count());
+    ending_segment_.resize(refs_.size() - starting_segment_.size());
     parallel_for((clusters_.size() + cluster_chunk - 1) / cluster_chunk, [&](std::size_t chunk) {
       const std::size_t last = std::min(clusters_.size(), (chunk + 1) * cluster_chunk);
       for (std::size_t id = chunk * cluster_chunk; id < last; ++id) {
@@ -384,7 +398,7 @@ class Clustering {
   std::vector<std::uint32_t> starting_segment_, ending_segment_;
   std::vector<ChunkKeys> chunks_;
   std::vector<std::uint32_t> counts_;
-  bool force_comparison_ = false;
+  bool force_comparison_ = false, keep_refs_ = false;
   EndpointSort last_sort_ = EndpointSort::radix;
 };
 

@@ -61,7 +61,6 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
   auto& pool = ctx.pool;
   auto& stats = ctx.stats;
   const auto clusters = clustering.clusters();
-  const auto refs = clustering.refs();
   if (side) light_side_start(ctx, *side, parallel_for);
   // Light technique densities carry the roulette's c (TechniqueSet::light_continuation).
   const T continuation = T(ctx.techniques.light_continuation);
@@ -69,33 +68,33 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
   std::vector<std::uint64_t> pairs(clusters.size(), 0);
   std::vector<std::uint8_t> camera_fact(clusters.size(), 0), light_fact(clusters.size(), 0);
   std::vector<std::uint32_t> camera_points(clusters.size(), 0), bridge_targets(clusters.size(), 0);
-  // The segments of refs [begin, end) for which keep(segment) holds.
-  const auto count = [&](std::uint32_t begin, std::uint32_t end, const auto& keep) {
+  // The segments of `segments` for which keep(segment) holds.
+  const auto count = [&](std::span<const std::uint32_t> segments, const auto& keep) {
     std::uint32_t n = 0;
-    for (std::uint32_t q = begin; q < end; ++q) n += keep(refs[q].segment) ? 1 : 0;
+    for (const std::uint32_t s : segments) n += keep(s) ? 1 : 0;
     return n;
   };
   const auto flagged = [&](std::uint16_t flag) { return [&pool, flag](std::uint32_t s) { return (pool.flags[s] & flag) != 0; }; };
   parallel_for(clusters.size(), [&](std::size_t c) {
     const Cluster<T>& cl = clusters[c];
+    const auto starting = clustering.starting_segments(c), ending = clustering.ending_segments(c);
     // Camera technique samples: segments ending here that were continued; they could draw any
     // segment starting here (x' in the voxel). Density (N31) with the voxel kernel K_C.
-    const std::uint32_t m = count(cl.middle, cl.end, flagged(camera_technique));
+    const std::uint32_t m = count(ending, flagged(camera_technique));
     camera_points[c] = m;
     if (ctx.techniques.bridges)
-      bridge_targets[c] = count(cl.begin, cl.middle, [&](std::uint32_t s) { return is_bridge_target(pool, s); });
+      bridge_targets[c] = count(starting, [&](std::uint32_t s) { return is_bridge_target(pool, s); });
     if (m > 0) {
       const auto y_of = [&](std::uint32_t s) -> const SurfacePoint<T>& { return pool.segments[s].y; };
       std::optional<Vec3<T>> common;
-      if (ctx.options.factorise) common = common_lambertian_normal(scene, y_of, refs, cl.middle, cl.end);
+      if (ctx.options.factorise) common = common_lambertian_normal(scene, y_of, ending);
       camera_fact[c] = common ? 1 : 0;
       // The technique samples whose incoming direction the (one-sided) BSDF accepts.
-      const SurfacePoint<T>& any_y = pool.segments[refs[cl.middle].segment].y;
-      const std::uint32_t valid_camera = !common ? 0 : count(cl.middle, cl.end, [&](std::uint32_t t) {
+      const SurfacePoint<T>& any_y = pool.segments[ending.front()].y;
+      const std::uint32_t valid_camera = !common ? 0 : count(ending, [&](std::uint32_t t) {
         return (pool.flags[t] & camera_technique) && glm::dot(-pool.last_direction[t], any_y.normal) > one_sided_epsilon<T>;
       });
-      for (std::uint32_t r = cl.begin; r < cl.middle; ++r) {
-        const std::uint32_t sp = refs[r].segment;
+      for (const std::uint32_t sp : starting) {
         if (!camera_reachable(pool, sp)) continue;
         const Vec3<T>& w = pool.first_direction[sp];
         T sum = T(0);
@@ -109,8 +108,7 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
             sum = T(valid_camera - (self ? 1 : 0)) * cosine * inv_pi<T>;
           pairs[c] += 1;
         } else {
-          for (std::uint32_t q = cl.middle; q < cl.end; ++q) {
-            const std::uint32_t t = refs[q].segment;
+          for (const std::uint32_t t : ending) {
             if (!(pool.flags[t] & camera_technique) || t == sp) continue;
             sum += camera_technique_pdf(scene, pool, t, sp);
             pairs[c] += 1;
@@ -121,17 +119,16 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
     }
     // Light technique samples: segments starting here that were continued backwards; they
     // could draw any plain segment ending here (y' in the voxel).
-    if (count(cl.begin, cl.middle, flagged(light_technique)) > 0) {
+    if (count(starting, flagged(light_technique)) > 0) {
       const auto x_of = [&](std::uint32_t s) -> const SurfacePoint<T>& { return pool.segments[s].x; };
       std::optional<Vec3<T>> common;
-      if (ctx.options.factorise) common = common_lambertian_normal(scene, x_of, refs, cl.begin, cl.middle);
+      if (ctx.options.factorise) common = common_lambertian_normal(scene, x_of, starting);
       light_fact[c] = common ? 1 : 0;
-      const SurfacePoint<T>& any_x = pool.segments[refs[cl.begin].segment].x;
-      const std::uint32_t valid_light = !common ? 0 : count(cl.begin, cl.middle, [&](std::uint32_t t) {
+      const SurfacePoint<T>& any_x = pool.segments[starting.front()].x;
+      const std::uint32_t valid_light = !common ? 0 : count(starting, [&](std::uint32_t t) {
         return (pool.flags[t] & light_technique) && glm::dot(pool.first_direction[t], any_x.normal) > one_sided_epsilon<T>;
       });
-      for (std::uint32_t r = cl.middle; r < cl.end; ++r) {
-        const std::uint32_t sp = refs[r].segment;
+      for (const std::uint32_t sp : ending) {
         if (!light_reachable(pool, sp)) continue;
         const Vec3<T> to_sensor = -pool.last_direction[sp];
         const T scale = continuation * cl.kernel * light_measure<Scn>(pool, sp);
@@ -148,8 +145,7 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
           }
           pairs[c] += 1;
         } else {
-          for (std::uint32_t q = cl.begin; q < cl.middle; ++q) {
-            const std::uint32_t t = refs[q].segment;
+          for (const std::uint32_t t : starting) {
             if (!(pool.flags[t] & light_technique) || t == sp) continue;
             const T pdf = light_technique_pdf(scene, pool, t, sp);
             sum += pdf;

@@ -16,24 +16,24 @@
 
 namespace segpath::filtering {
 
-/// Whether every point in [begin, end) of `refs` (the given end of each segment) has a
-/// Lambertian BSDF and one shading normal; returns that normal.
+/// Whether the given end of every one of `segments` has a Lambertian BSDF and one shading
+/// normal; returns that normal.
 template <Scene Scn, class Ends>
 std::optional<Vec3<typename Scn::Scalar>> common_lambertian_normal(const Scn& scene, const Ends& end_of,
-                                                                   std::span<const EndpointRef> refs, std::uint32_t begin,
-                                                                   std::uint32_t end) {
+                                                                   std::span<const std::uint32_t> segments) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   using B = std::remove_cvref_t<decltype(scene.bsdf())>;
   if constexpr (!HasLambertianAlbedo<B, S>) {
     return std::nullopt;
   } else {
-    if (begin == end) return std::nullopt;
+    if (segments.empty()) return std::nullopt;
     const auto& bsdf = scene.bsdf();
-    const Vec3<T> n = end_of(refs[begin].segment).shading_normal;
-    for (std::uint32_t r = begin; r < end; ++r) {
-      const SurfacePoint<T>& p = end_of(refs[r].segment);
-      if (!(p.shading_normal == n) || !(p.normal == end_of(refs[begin].segment).normal) || !bsdf.lambertian_albedo(p)) return std::nullopt;
+    const SurfacePoint<T>& first = end_of(segments.front());
+    const Vec3<T> n = first.shading_normal;
+    for (const std::uint32_t s : segments) {
+      const SurfacePoint<T>& p = end_of(s);
+      if (!(p.shading_normal == n) || !(p.normal == first.normal) || !bsdf.lambertian_albedo(p)) return std::nullopt;
     }
     return n;
   }
@@ -56,16 +56,15 @@ void transfer_factorisation(Context<Scn>& ctx, const Clustering<typename Scn::Sc
   diffuse.assign(pool.size(), S(T(0)));
   if constexpr (HasLambertianAlbedo<B, S>) {
     const auto& bsdf = scene.bsdf();
-    const auto refs = clustering.refs();
     parallel_for(factorised.size(), [&](std::size_t c) {
-      const Cluster<T>& cl = clustering.clusters()[c];
-      if (cl.middle == cl.end || cl.begin == cl.middle) return;
+      const auto starting = clustering.starting_segments(c), ending = clustering.ending_segments(c);
+      if (starting.empty() || ending.empty()) return;
       // A black Lambertian end (an emitter that reflects nothing) has f_r = 0 = diffuse
       // whatever its normal and directions: next-event segments end on such lights in crowds.
       const SurfacePoint<T>* first = nullptr;
       bool ok = true;
-      for (std::uint32_t q = cl.middle; q < cl.end && ok; ++q) {
-        const std::uint32_t s = refs[q].segment;
+      for (std::size_t q = 0; q < ending.size() && ok; ++q) {
+        const std::uint32_t s = ending[q];
         const SurfacePoint<T>& y = pool.segments[s].y;
         const auto albedo = bsdf.lambertian_albedo(y);
         if (albedo && is_black(*albedo)) continue;
@@ -73,8 +72,8 @@ void transfer_factorisation(Context<Scn>& ctx, const Clustering<typename Scn::Sc
         ok = albedo && y.normal == first->normal && glm::dot(-pool.last_direction[s], y.normal) > one_sided_epsilon<T>;
         if (ok) diffuse[s] = *albedo * inv_pi<T> * pool.chain[s];
       }
-      for (std::uint32_t r = cl.begin; r < cl.middle && ok && first; ++r)
-        ok = glm::dot(pool.first_direction[refs[r].segment], first->normal) > one_sided_epsilon<T>;
+      for (std::size_t r = 0; r < starting.size() && ok && first; ++r)
+        ok = glm::dot(pool.first_direction[starting[r]], first->normal) > one_sided_epsilon<T>;
       factorised[c] = ok ? 1 : 0;
     });
     for (const auto f : factorised) stats.factorised_transfer_clusters += f;
@@ -93,15 +92,14 @@ void conditioned_factorisation(Context<Scn>& ctx, const Clustering<typename Scn:
   const auto& pool = ctx.pool;
   auto& stats = ctx.stats;
   transfer_factorisation(ctx, clustering, factorised, diffuse, parallel_for);
-  const auto refs = clustering.refs();
   const auto x_of = [&](std::uint32_t s) -> const SurfacePoint<T>& { return pool.segments[s].x; };
   std::vector<std::uint8_t> dropped(factorised.size(), 0);
   parallel_for(factorised.size(), [&](std::size_t c) {
     if (!factorised[c]) return;
-    const Cluster<T>& cl = clustering.clusters()[c];
-    bool ok = common_lambertian_normal(scene, x_of, refs, cl.begin, cl.middle).has_value();
-    for (std::uint32_t r = cl.begin; r < cl.middle && ok; ++r) {
-      const std::uint32_t sp = refs[r].segment;
+    const auto starting = clustering.starting_segments(c);
+    bool ok = common_lambertian_normal(scene, x_of, starting).has_value();
+    for (std::size_t r = 0; r < starting.size() && ok; ++r) {
+      const std::uint32_t sp = starting[r];
       ok = glm::dot(pool.first_direction[sp], pool.segments[sp].x.normal) > one_sided_epsilon<T>;
     }
     if (!ok) factorised[c] = 0, dropped[c] = 1;
