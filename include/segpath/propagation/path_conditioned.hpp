@@ -227,6 +227,18 @@ struct ConditionedJunction {
   std::uint8_t code;  ///< bit 0: s forces s' (read U); bits 1, 2: the state e(s) reached from e(s') = 0, 1
 };
 
+/// The three junctions of an ending slot of a factorised group, one per flag class of s'
+/// (propagate_conditioned), in 40 bytes (float) instead of 72: their transfer is the same.
+template <Spectrum S>
+struct ClassJunctions {
+  S transfer;
+  std::array<std::array<spectrum_scalar_t<S>, 2>, 3> r;
+  std::array<std::uint8_t, 3> code;
+
+  [[nodiscard]] ConditionedJunction<S> operator[](int k) const noexcept { return {transfer, r[k], code[k]}; }
+  void set(int k, const ConditionedJunction<S>& j) noexcept { transfer = j.transfer, r[k] = j.r, code[k] = j.code; }
+};
+
 /// The junction s -> s' (transfer = K f_r(s, s') G(s')) for s' with flags fp and 1 / D_lt(s')
 /// (where read forced) and q_l(s | s') = ql: the r_i and e(s) rules of the header comment.
 template <Spectrum S>
@@ -312,7 +324,7 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 /// the same for every s' with conditioned_potential (Lambertian ends and starts with one
 /// normal): their junctions are summed per flag class of s' (three classes), O(#ending +
 /// #starting) instead of the product; each of their ending slots then keeps its three class
-/// junctions (3 x 24 bytes for Rgb<float>).
+/// junctions (40 bytes for Rgb<float>).
 ///
 /// `junction_cache_bytes`: the general groups whose ConditionedJunction table (a PairTable, one
 /// sizeof(detail::ConditionedJunction<S>) per pair) fits in this budget, in group order, call
@@ -358,7 +370,7 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
   // ending slot of a factorised group has three junctions, one per class, fixed for the whole
   // propagation; those of group g from class_offset[g] on.
   std::vector<std::uint32_t> class_offset;
-  std::vector<std::array<Junction, 3>> class_junction;
+  std::vector<detail::ClassJunctions<S>> class_junction;
   if constexpr (J::factorisable) {
     if (has_factorisation) {
       class_offset.resize(factorised.size());
@@ -381,8 +393,8 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
           const T ql = representative == no_cluster ? T(0) : T(in.light_pair(ending_segment[i], representative));
           const S transfer = diffuse[ending_segment[i]] * support.kernel(g);
           for (int k_class = 0; k_class < 3; ++k_class)
-            class_junction[class_offset[g] + (i - ending.begin)][k_class] =
-                detail::conditioned_coefficients(end[i], class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0));
+            class_junction[class_offset[g] + (i - ending.begin)].set(
+                k_class, detail::conditioned_coefficients(end[i], class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0)));
         }
       });
     }
@@ -419,16 +431,13 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
       [&](std::size_t g, std::uint32_t i, std::uint32_t j) { return joins(i, j) ? junction(i, j, support.kernel(g)) : Junction{}; },
       parallel_for);
   // Budgets (segment_budget.hpp): sweep k computes A^(k + 1); a start of p pieces reads
-  // A^(k + 1 - p), which `lagged` keeps for p > 1 (as for the results of chains).
+  // A^(k + 1 - p), which `lagged` keeps for p > 1 (as for the results of chains). A start's
+  // source is its own segment's ending slot, so one watch per slot serves both.
   const int depth = detail::max_pieces(in.pieces, n);
   detail::LaggedValues<ConditionedValues<S>> lagged;
-  std::vector<std::uint32_t> start_watch, end_watch;
+  std::vector<std::uint32_t> end_watch;
   if (depth > 1) {
-    start_watch.assign(record.size(), detail::no_watch);
     end_watch.assign(ending_slots, detail::no_watch);
-    for (std::size_t r = 0; r < record.size(); ++r)
-      if (const std::uint16_t p = in.pieces[record.segment(r)]; p > 1 && start[r].source != no_cluster)
-        start_watch[r] = lagged.watch(start[r].source, p);
     for (std::size_t i = 0; i < ending_slots; ++i)
       if (const std::uint16_t p = in.pieces[ending_segment[i]]; p > 1) end_watch[i] = lagged.watch(std::uint32_t(i), p);
     lagged.allocate();
@@ -442,10 +451,10 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
         starting_values[r] = ConditionedValues<S>{};
       } else if (i == no_cluster) {
         starting_values[r] = detail::conditioned_emission(in, sp);
-      } else if (depth == 1 || start_watch[r] == detail::no_watch) {
+      } else if (depth == 1 || end_watch[i] == detail::no_watch) {
         starting_values[r] = b == 0 ? emission_values(i) : current[i];
       } else {
-        starting_values[r] = b == 0 ? emission_values(i) : lagged.at(start_watch[r], b);
+        starting_values[r] = b == 0 ? emission_values(i) : lagged.at(end_watch[i], b);
       }
     });
     detail::for_groups(support, parallel_for, [&](std::size_t g) {
@@ -469,7 +478,7 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
           };
           auto values_of = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
             ConditionedValues<S> acc = emission_values(i);
-            const std::array<Junction, 3>& junctions = class_junction[class_offset[g] + (i - ending.begin)];
+            const detail::ClassJunctions<S>& junctions = class_junction[class_offset[g] + (i - ending.begin)];
             for (int k_class = 0; k_class < 3; ++k_class) detail::apply_junction(junctions[k_class], sum[k_class], acc);
             return acc;
           };

@@ -27,7 +27,7 @@ namespace segpath::filtering {
 template <Spectrum S>
 inline constexpr std::size_t conditioned_bytes_per_segment =
     2 * sizeof(ConditionedValues<S>) + sizeof(detail::ConditionedEmission<S>) + 8 * sizeof(spectrum_scalar_t<S>) +
-    4 * sizeof(std::uint32_t) + 3 + 3 * sizeof(detail::ConditionedJunction<S>);
+    4 * sizeof(std::uint32_t) + 3 + sizeof(detail::ClassJunctions<S>);
 
 /// G(s) w(s) = G(s) / D(s) per segment (0 where no technique could draw it).
 template <Real T, Spectrum S>
