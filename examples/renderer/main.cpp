@@ -117,10 +117,18 @@ std::uint64_t available_bytes() {
 /// options) measures, plus their transfer cache up to its budget (scaled linearly: with a fixed
 /// --radius the full render's clusters are fuller and the cache nearer its budget). Measured against the peak
 /// resident size of BDPF on the four boxes and PhF on box 1 it is 0.94-1.11x (docs/figures.md).
-std::uint64_t estimated_peak_bytes(const Options& o, const renderer::MethodOptions& mo) {
+struct PeakEstimate {
+  double rest = 0;   ///< bytes besides the transfer cache
+  double cache = 0;  ///< the transfer cache's bytes (filtering methods)
+  [[nodiscard]] std::uint64_t total() const noexcept { return std::uint64_t(rest + cache); }
+};
+
+PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo) {
   const double pixels = double(o.width) * double(o.height);
-  double bytes = 64.0 * pixels;  // accumulator (double RGB), the method's image, the output image
-  if (o.method != "mvf" && o.method != "phf" && o.method != "bdpf") return std::uint64_t(bytes);
+  PeakEstimate estimate;
+  double& bytes = estimate.rest;
+  bytes = 64.0 * pixels;  // accumulator (double RGB), the method's image, the output image
+  if (o.method != "mvf" && o.method != "phf" && o.method != "bdpf") return estimate;
   // At most 64 x 64 pixels, the render's aspect kept (one side may shrink to 1 pixel).
   Options pilot = o;
   const double shrink = std::min(1.0, 64.0 / std::sqrt(pixels));
@@ -140,14 +148,14 @@ std::uint64_t estimated_peak_bytes(const Options& o, const renderer::MethodOptio
         }
       },
       *method);
-  if (!f) return std::uint64_t(bytes);
+  if (!f) return estimate;
   const double scale = pixels / (double(pilot.width) * double(pilot.height));
   // The pool, with the growth of its per-chunk record lists (measured: ~1.1x the pool).
   bytes += 1.1 * double(f->segments) * scale * double(f->bytes_per_segment);
   const double cache_budget = mo.transfer_cache_mib ? double(*mo.transfer_cache_mib) * (1 << 20)
                                                     : double(segpath::FilteringOptions<float>{}.transfer_cache_bytes);
-  bytes += std::min(cache_budget, double(f->transfer_cache_bytes) * scale);
-  return std::uint64_t(bytes);
+  estimate.cache = std::min(cache_budget, double(f->transfer_cache_bytes) * scale);
+  return estimate;
 }
 
 
@@ -313,7 +321,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
   const std::uint64_t size = std::uint64_t(ranks.size());
 
   // Every rank's own set-up: its scene, its method and the memory its machine has.
-  const renderer::MethodOptions mo = renderer::method_options(o);
+  renderer::MethodOptions mo = renderer::method_options(o);
   std::optional<renderer::Method> method;
   std::optional<renderer::RenderScene> scene;
   if (!on_every_rank(ranks, [&] {
@@ -326,16 +334,30 @@ int run(const Options& o, const renderer::Ranks& ranks) {
         if (!method) fail("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
         scene.emplace(load_scene(o));
         tbb::global_control pilot_threads(tbb::global_control::max_allowed_parallelism, o.threads);
-        const std::uint64_t estimate = estimated_peak_bytes(o, mo);
+        const PeakEstimate peak = estimated_peak(o, mo);
+        std::uint64_t estimate = peak.total();
         // In double: a tiny --memory-limit must not round to 0 ("unknown"), a huge one not overflow.
         const double limit = o.memory_limit_gb ? *o.memory_limit_gb * 1e9 : double(available_bytes());
         const bool filtering = o.method == "mvf" || o.method == "phf" || o.method == "bdpf";
+        // The transfer cache only buys speed: unless --transfer-cache fixes it, it gets what the
+        // limit leaves (whole MiB), and only the rest of the render can be refused.
+        if (filtering && !o.transfer_cache_mib && limit > 0 && double(estimate) > limit && peak.rest < limit) {
+          mo.transfer_cache_mib = std::size_t((limit - peak.rest) / double(1 << 20));
+          estimate = std::uint64_t(peak.rest + double(*mo.transfer_cache_mib) * double(1 << 20));
+          method = renderer::make_method(o.method, mo);
+          if (root)
+            std::fprintf(stderr, "segpath-render: the transfer cache is limited to %zu MiB to keep the render within %s (%s)\n",
+                         *mo.transfer_cache_mib, o.memory_limit_gb ? "--memory-limit" : "the memory available",
+                         memory_size(std::uint64_t(std::min(limit, 1e19))).c_str());
+        }
         if (limit > 0 && double(estimate) > limit)
           fail("this render needs about " + memory_size(estimate) + ", more than " +
                (o.memory_limit_gb ? "--memory-limit" : "the memory available") + " (" +
                memory_size(std::uint64_t(std::min(limit, 1e19))) + "); lower it with " +
-               (filtering ? "--transfer-cache, --beta or " : "") + "--width/--height");
-        if (o.stats && root) std::fprintf(stderr, "segpath-render: estimated peak memory %s\n", memory_size(estimate).c_str());
+               (!filtering ? "" : peak.rest < limit ? "--transfer-cache, --beta or " : "--beta or ") + "--width/--height");
+        if (o.stats && root)
+          std::fprintf(stderr, "segpath-render: estimated peak memory %s (transfer cache %s)\n", memory_size(estimate).c_str(),
+                       memory_size(estimate - std::min(estimate, std::uint64_t(peak.rest))).c_str());
       }))
     return 1;
   if (root)

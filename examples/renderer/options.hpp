@@ -153,11 +153,11 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
       ->capture_default_str();
   app.add_option("--transfer-cache", o.transfer_cache_mib,
                  "mvf/phf/bdpf: MiB of pair transfers cached per iteration (0: none, every sweep evaluates them); "
-                 "default 1024")
+                 "default 1024, or what --memory-limit leaves")
       ->check(CLI::Range(std::size_t(0), std::size_t(1) << 20));
   app.add_option("--memory-limit", o.memory_limit_gb,
-                 "GB of memory the render may use; a render estimated to need more stops before it starts "
-                 "(default: the memory available)")
+                 "GB of memory the render may use; a render estimated to need more stops before it starts, "
+                 "after the default transfer cache of mvf/phf/bdpf has shrunk to what it leaves (default: the memory available)")
       ->check(positive_finite);
   app.add_flag("--stats", o.stats,
                "mvf/phf/bdpf: print each iteration's segments, clusters, pair evaluations and stage times on stderr");
