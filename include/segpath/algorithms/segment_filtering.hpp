@@ -177,7 +177,8 @@ class SegmentFiltering {
       if (is_finite(value)) image.add(pool.pixel[i], value);
       else drops.add(DropReason::non_finite);
     }
-    stats.bytes_per_segment = pool.bytes_per_segment() + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes;
+    stats.bytes_per_segment = pool.bytes_per_segment() + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
+                              (pool.size() > 0 ? stats.propagation_copy_bytes / pool.size() : 0);
     lap(stats.gather_seconds);
     return stats;
   }

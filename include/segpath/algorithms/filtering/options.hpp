@@ -109,6 +109,9 @@ struct FilteringStats {
   double cell_size = 0;
   std::size_t bytes_per_segment = 0;    ///< O(#segments) memory, without the transfer cache
   std::size_t transfer_cache_bytes = 0;  ///< FilteringOptions::transfer_cache_bytes at most
+  /// In bytes_per_segment: what the propagation copied into slot order for the clusters it
+  /// does not factorise (voxel support), for the whole pool.
+  std::size_t propagation_copy_bytes = 0;
   /// Wall time of the stages of render_iteration: paths (pool), support (clusters or disk
   /// junctions), densities (MMIS denominators, light side), propagation (with its pair
   /// evaluations), gather (pixels).

@@ -23,11 +23,14 @@
 namespace segpath::filtering {
 
 /// The path-conditioned propagation's memory per segment, besides the junction table
-/// (FilteringOptions::transfer_cache_bytes).
+/// (FilteringOptions::transfer_cache_bytes) and the copies of FilteringStats::propagation_copy_bytes:
+/// at most, per ending slot its values, emission, end and class junctions, per start its values
+/// and start, per segment its light side (LightSide) and the s-only factor of q_l.
 template <Spectrum S>
 inline constexpr std::size_t conditioned_bytes_per_segment =
-    2 * sizeof(ConditionedValues<S>) + sizeof(detail::ConditionedEmission<S>) + 8 * sizeof(spectrum_scalar_t<S>) +
-    4 * sizeof(std::uint32_t) + 3 + sizeof(detail::ClassJunctions<S>);
+    2 * sizeof(ConditionedValues<S>) + sizeof(detail::ConditionedEmission<S>) + sizeof(detail::ConditionedEnd<spectrum_scalar_t<S>>) +
+    sizeof(detail::ClassJunctions<S>) + sizeof(detail::ConditionedStart<spectrum_scalar_t<S>>) +
+    3 * sizeof(spectrum_scalar_t<S>) + sizeof(std::uint32_t) + 1;
 
 /// G(s) w(s) = G(s) / D(s) per segment (0 where no technique could draw it).
 template <Real T, Spectrum S>
@@ -120,6 +123,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     transfer.build(pool, support, factorised, parallel_for);
     std::vector<SurfacePoint<T>> starting_x(transfer.starting_direction.size());
     std::vector<T> ending_scale(transfer.ending.size(), T(0));
+    stats.propagation_copy_bytes = transfer.bytes() + starting_x.capacity() * sizeof(SurfacePoint<T>) + ending_scale.capacity() * sizeof(T);
     const auto clusters = support.clusters();
     parallel_for(clusters.size(), [&](std::size_t c) {
       if (!factorised.empty() && factorised[c]) return;
