@@ -116,7 +116,7 @@ std::uint64_t available_bytes() {
 /// number per pixel one iteration of a pilot render 64 pixels wide (same scene, method and
 /// options) measures, plus their transfer cache up to its budget (scaled linearly: with a fixed
 /// --radius the full render's clusters are fuller and the cache nearer its budget). Measured against the peak
-/// resident size of BDPF on the four boxes and PhF on box 1 it is 0.94-1.11x (docs/figures.md).
+/// resident size of BDPF on the four boxes it is 0.99-1.11x (docs/figures.md, session 18).
 struct PeakEstimate {
   double rest = 0;   ///< bytes besides the transfer cache
   double cache = 0;  ///< the transfer cache's bytes (filtering methods)
