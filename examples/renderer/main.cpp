@@ -111,18 +111,19 @@ std::uint64_t available_bytes() {
   return 0;
 }
 
-/// The peak memory a render will need, estimated before it starts. Every method keeps a few
-/// images of the full size; the filtering methods also pool every segment of an iteration, whose
-/// number per pixel one iteration of a pilot render 64 pixels wide (same scene, method and
-/// options) measures, plus their transfer cache up to its budget (scaled linearly: with a fixed
-/// --radius the full render's clusters are fuller and the cache nearer its budget). Measured against the peak
-/// resident size of BDPF on the four boxes it is 0.99-1.11x (docs/figures.md, session 18).
+/// A render's estimated peak memory, in bytes: the transfer cache of the filtering methods apart.
 struct PeakEstimate {
   double rest = 0;   ///< bytes besides the transfer cache
   double cache = 0;  ///< the transfer cache's bytes (filtering methods)
   [[nodiscard]] std::uint64_t total() const noexcept { return std::uint64_t(rest + cache); }
 };
 
+/// The peak memory a render will need, estimated before it starts. Every method keeps a few
+/// images of the full size; the filtering methods also pool every segment of an iteration, whose
+/// number per pixel one iteration of a pilot render 64 pixels wide (same scene, method and
+/// options) measures, plus their transfer cache up to its budget (scaled linearly: with a fixed
+/// --radius the full render's clusters are fuller and the cache nearer its budget). Measured against the peak
+/// resident size of BDPF on the four boxes it is 0.99-1.11x (docs/figures.md, session 18).
 PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo) {
   const double pixels = double(o.width) * double(o.height);
   PeakEstimate estimate;
