@@ -5,6 +5,8 @@
 #include <segpath/testing/two_threads.hpp>
 
 #include <algorithm>
+#include <cstring>
+#include <limits>
 #include <functional>
 #include <thread>
 #include <vector>
@@ -378,4 +380,29 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
   }
   CHECK(compared > 1500);
   CHECK(cut > 300);
+}
+
+TEST_CASE("the compact emission of a slot is conditioned_emission bit for bit, at zero, denormal, infinite and NaN densities",
+          "[propagation]") {
+  using T = float;
+  using S = Rgb<float>;
+  const T inf = std::numeric_limits<T>::infinity(), nan = std::numeric_limits<T>::quiet_NaN();
+  const std::vector<T> densities = {0.f, -0.f, 1.f, 1e-40f, 1e-45f, 3e38f, inf, nan, -1.f, 1e-38f};
+  const std::vector<T> emissions = {0.f, 1.f, 1e30f, inf, nan};
+  std::size_t differ = 0;
+  for (const T d : densities)
+    for (const T dl : densities)
+      for (const T e : emissions) {
+        const std::vector<S> emitted{S(e)};
+        const std::vector<T> geometry{1}, density{d}, light_density{dl}, technique_density{0};
+        const std::vector<std::uint32_t> terms{0};
+        const std::vector<std::uint8_t> flags{0};
+        auto link = [](std::uint32_t, std::uint32_t) { return S(0.f); };
+        auto light_pair = [](std::uint32_t, std::uint32_t) { return T(0); };
+        const ConditionedInputs<S, decltype(link), decltype(light_pair)> in{
+            emitted, geometry, density, light_density, terms, technique_density, flags, link, light_pair};
+        const ConditionedValues<S> full = detail::conditioned_emission(in, 0), compact = detail::compact_emission(in, 0).values();
+        differ += std::memcmp(&full, &compact, sizeof full) != 0 ? 1 : 0;
+      }
+  CHECK(differ == 0);
 }

@@ -82,6 +82,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <ranges>
 #include <span>
 #include <stdexcept>
@@ -158,13 +159,13 @@ ConditionedValues<S> conditioned_emission(const ConditionedInputs<S, Link, Light
 template <Spectrum S>
 struct ConditionedEmission {
   S emitted{spectrum_scalar_t<S>(0)};
-  /// 1 / D(s) (0 where D(s) = 0), negated (its sign bit set) in state e = 1, D_l(s) > 0.
+  /// 1 / D(s) (NaN where D(s) > 0 fails), negated (its sign bit set) in state e = 1, D_l(s) > 0.
   spectrum_scalar_t<S> signed_inverse_density = 0;
 
   [[nodiscard]] ConditionedValues<S> values() const noexcept {
     using T = spectrum_scalar_t<S>;
     const T inverse_density = std::abs(signed_inverse_density);
-    const S w = inverse_density > T(0) ? emitted * inverse_density : S(T(0));
+    const S w = std::isnan(inverse_density) ? S(T(0)) : emitted * inverse_density;
     // Constant indices: a value indexed by e would keep a sweep's accumulator in memory.
     ConditionedValues<S> v;
     if (std::signbit(signed_inverse_density)) {
@@ -181,7 +182,8 @@ struct ConditionedEmission {
 template <Spectrum S, class Link, class LightPair>
 ConditionedEmission<S> compact_emission(const ConditionedInputs<S, Link, LightPair>& in, std::size_t s) noexcept {
   using T = spectrum_scalar_t<S>;
-  const T inverse_density = in.density[s] > T(0) ? T(1) / in.density[s] : T(0);
+  // NaN, not 0, for no density: D(s) = +inf gives 1 / D = 0, and W = L_e * 0 as conditioned_emission.
+  const T inverse_density = in.density[s] > T(0) ? T(1) / in.density[s] : std::numeric_limits<T>::quiet_NaN();
   return {in.emitted[s], in.light_density[s] > T(0) ? -inverse_density : inverse_density};
 }
 
