@@ -86,29 +86,35 @@ class NextSegmentSampler {
   }
 
  private:
-  /// The rest of (N31) from the junction x_{i+1}: BSDF direction at y_i, first hit, factor,
-  /// density and weight, written straight into the returned optional (one object, NRVO).
+  /// The rest of (N31) from the junction x_{i+1}: BSDF direction at y_i and first hit.
   SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> continue_from(const Scn& scene, const Technique& t,
                                                                      const SurfacePoint<T>& junction, T junction_pdf,
                                                                      const Vec2<T>& u_bsdf, T u_lobe) const noexcept {
-    std::optional<SegmentSample<S>> out;
     const Segment<T>& prev = t.previous;
     const auto bsdf = scene.bsdf().sample(BsdfSampleQuery<T>{prev.y, -t.direction, u_bsdf, u_lobe, Transport::radiance});
-    if (!bsdf || !(bsdf->pdf > T(0))) return out;
+    if (!bsdf || !(bsdf->pdf > T(0))) return std::nullopt;
     const auto found = scene.intersect(IntersectQuery<T>{Ray<T>{junction.position, bsdf->direction}});
+    if (found) return segment_to(prev, junction, junction_pdf, *bsdf, found->point, found->distance);
     // A ray that leaves the scene ends at infinity (a `direction` endpoint).
-    SurfacePoint<T> escaped;
-    const SurfacePoint<T>& y = found ? found->point : (escaped = SurfacePoint<T>::at_infinity(bsdf->direction));
-    const T distance = found ? found->distance : T(1);
+    return segment_to(prev, junction, junction_pdf, *bsdf, SurfacePoint<T>::at_infinity(bsdf->direction), T(1));
+  }
+
+  /// The sample for the segment junction -> y: factor, density and weight, written straight
+  /// into the returned optional (one object, NRVO).
+  SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> segment_to(const Segment<T>& prev,
+                                                                  const SurfacePoint<T>& junction, T junction_pdf,
+                                                                  const BsdfSample<S>& bsdf, const SurfacePoint<T>& y,
+                                                                  T distance) const noexcept {
+    std::optional<SegmentSample<S>> out;
     // (N17) factor K f_r G(s') and (N31) density p_K p_w |n_y . s^| / d^2 share |n_y . s^| / d^2.
-    const T cos_x = endpoint_cosine(junction, bsdf->direction);
-    const T area_factor = solid_angle_to_area(T(1), junction, y, bsdf->direction, distance);
+    const T cos_x = endpoint_cosine(junction, bsdf.direction);
+    const T area_factor = solid_angle_to_area(T(1), junction, y, bsdf.direction, distance);
     T k = T(1);
     if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{prev, Segment<T>{junction, y}});
     // Built in one expression: no default-initialised sample overwritten field by field.
-    out.emplace(Segment<T>{junction, y}, bsdf->direction, link_factor(k, bsdf->value, cos_x * area_factor),
-                junction_pdf * bsdf->pdf * area_factor, bsdf->value * ((k / junction_pdf) * cos_x / bsdf->pdf),
-                bsdf->delta);
+    out.emplace(Segment<T>{junction, y}, bsdf.direction, link_factor(k, bsdf.value, cos_x * area_factor),
+                junction_pdf * bsdf.pdf * area_factor, bsdf.value * ((k / junction_pdf) * cos_x / bsdf.pdf),
+                bsdf.delta);
     return out;
   }
 
