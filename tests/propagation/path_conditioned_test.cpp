@@ -212,8 +212,9 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
           }
         }
       std::vector<double> tabled;
-      CHECK(propagate_conditioned(junctions, inputs, depth, tabled, SerialFor{}, {}, {}, std::size_t(1) << 30) ==
-            junctions.junction_count() * sizeof(detail::ConditionedJunction<double>));
+      const ConditionedMemory memory = propagate_conditioned(junctions, inputs, depth, tabled, SerialFor{}, {}, {}, std::size_t(1) << 30);
+      CHECK(memory.junction_table == junctions.junction_count() * sizeof(detail::ConditionedJunction<double>));
+      CHECK(memory.lagged == 0);  // no chains
       for (std::uint32_t s = 0; s < p.n; ++s) {
         CHECK(result[s] == current[s].w[0] + current[s].w[1]);
         CHECK(tabled[s] == result[s]);
@@ -257,7 +258,7 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
           if (const std::uint32_t sp = clustering.starting_segments()[j]; p.geometry[sp] > 0)
             junctions_per_sweep += cl.ending_count() - (clustering.cluster_of_y(sp) == clustering.cluster_of_x(sp) ? 1 : 0);
       std::vector<double> by_slot;
-      CHECK(propagate_conditioned(clustering, slot_inputs, depth, by_slot) == 0);  // no junction table by default
+      CHECK(propagate_conditioned(clustering, slot_inputs, depth, by_slot).junction_table == 0);  // no table by default
       CHECK(calls == junctions_per_sweep * std::size_t(depth));
       CHECK(wrong == 0);
       CHECK(by_slot == result);
@@ -265,7 +266,7 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
       for (const std::size_t budget : {std::size_t(1) << 30, std::size_t(256)}) {
         std::vector<double> tabled;
         calls = 0;
-        const std::size_t bytes = propagate_conditioned(clustering, slot_inputs, depth, tabled, SerialFor{}, {}, {}, budget);
+        const std::size_t bytes = propagate_conditioned(clustering, slot_inputs, depth, tabled, SerialFor{}, {}, {}, budget).junction_table;
         CHECK(bytes <= budget);
         if (budget > bytes + (std::size_t(1) << 20)) CHECK(calls == junctions_per_sweep);  // whole: once per junction
         else CHECK(calls <= junctions_per_sweep * std::size_t(depth));
@@ -366,11 +367,21 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
     inputs.pieces = pieces;
     const int depth = 1 + int(rng.next_u32() % 4);
     std::vector<double> result;
+    // The lagged values it reports: one ring of p values per ending slot of a chain of p > 1.
+    std::size_t ring_values = 0;
+    const auto count_rings = [&](const auto& ending) {
+      for (const std::uint32_t s : ending) ring_values += pieces[s] > 1 ? pieces[s] : 0;
+    };
+    ConditionedMemory memory;
     if (disk) {
-      propagate_conditioned(hood.junctions, inputs, depth, result);
+      memory = propagate_conditioned(hood.junctions, inputs, depth, result);
+      count_rings(hood.junctions.ending_segments());
     } else {
-      propagate_conditioned(hood.clustering, inputs, depth, result);
+      memory = propagate_conditioned(hood.clustering, inputs, depth, result);
+      count_rings(hood.clustering.ending_segments());
     }
+    CHECK(memory.lagged == ring_values * sizeof(ConditionedValues<double>));
+    CHECK(memory.junction_table == 0);
     for (std::uint32_t s = 0; s < p.n; ++s) {
       const double reference = naive(p, s, depth, near_of, [&](std::uint32_t q) { return kernel[q]; }, pieces);
       CHECK(result[s] == Approx(reference).epsilon(1e-10).margin(1e-12));

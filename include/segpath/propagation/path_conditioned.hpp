@@ -310,6 +310,12 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 
 }  // namespace detail
 
+/// What propagate_conditioned allocated besides its O(#segments) arrays, in bytes.
+struct ConditionedMemory {
+  std::size_t junction_table = 0;  ///< the ConditionedJunction table (junction_cache_bytes at most)
+  std::size_t lagged = 0;          ///< the lagged values of chains (LaggedValues): grows with the chains only
+};
+
 /// `iterations` >= 1 Jacobi iterations over the groups of a JunctionSupport (clusters, disks)
 /// from the emission; returns per segment W_0 + W_1 in `weighted` (L(s) with the chain
 /// weights, s's own included: a sensor segment's pixel value is W G(s) weighted[s]). Parallel
@@ -331,9 +337,9 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 /// `junction_cache_bytes`: the general groups whose ConditionedJunction table (a PairTable, one
 /// sizeof(detail::ConditionedJunction<S>) per pair) fits in this budget, in group order, call
 /// link and light_pair once per pair for the whole propagation instead of once per pair and
-/// iteration. The result is the same. Returns the bytes the table took.
+/// iteration. The result is the same. Returns the bytes the table and the lagged values took.
 template <JunctionSupport J, Spectrum S, class Link, class LightPair, ParallelFor P = SerialFor>
-std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, Link, LightPair>& in, int iterations,
+ConditionedMemory propagate_conditioned(const J& support, const ConditionedInputs<S, Link, LightPair>& in, int iterations,
                                   std::vector<S>& weighted, const P& parallel_for = {},
                                   std::span<const std::uint8_t> factorised = {}, std::span<const S> diffuse = {},
                                   std::size_t junction_cache_bytes = 0) {
@@ -522,7 +528,7 @@ std::size_t propagate_conditioned(const J& support, const ConditionedInputs<S, L
     const ConditionedValues<S>& v = depth == 1 || end_watch[i] == detail::no_watch ? current[i] : lagged.at(end_watch[i], b);
     weighted[ending_segment[i]] = v.w[0] + v.w[1];
   });
-  return table.value_bytes();
+  return ConditionedMemory{table.value_bytes(), lagged.bytes()};
 }
 
 }  // namespace segpath

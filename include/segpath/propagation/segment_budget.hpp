@@ -50,6 +50,8 @@ class LaggedValues {
       values_[offset_[w] + std::size_t(budget % pieces_[w])] = values[slot_[w]];
     });
   }
+  /// The rings' bytes (after allocate).
+  [[nodiscard]] std::size_t bytes() const noexcept { return values_.capacity() * sizeof(V); }
   /// A^(budget) of watch `id`, for budget >= 1 within its last p kept budgets.
   [[nodiscard]] const V& at(std::uint32_t id, int budget) const noexcept {
     return values_[offset_[id] + std::size_t(budget % pieces_[id])];

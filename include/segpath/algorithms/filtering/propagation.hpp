@@ -112,7 +112,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     const ConditionedInputs<S, decltype(link), decltype(light_pair)> inputs{
         pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags, link, light_pair,
         pool.pieces};
-    propagate_conditioned(support, inputs, iterations, radiance, parallel_for);
+    stats.lagged_bytes = propagate_conditioned(support, inputs, iterations, radiance, parallel_for).lagged;
       } else {
     std::vector<std::uint8_t> factorised;
     std::vector<S> diffuse;
@@ -160,9 +160,11 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
         TransferLink<Scn>{scene.bsdf(), transfer}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale},
         pool.pieces};
     // The junctions of the pairs that fit the cache budget are built once per pool.
-    stats.transfer_cache_bytes =
+    const ConditionedMemory memory =
         propagate_conditioned(support, slot_inputs, iterations, radiance, parallel_for, std::span<const std::uint8_t>(factorised),
                               std::span<const S>(diffuse), ctx.options.transfer_cache_bytes);
+    stats.transfer_cache_bytes = memory.junction_table;
+    stats.lagged_bytes = memory.lagged;
   }
   geometry.assign(pool.geometry.begin(), pool.geometry.end());
 }
