@@ -223,6 +223,89 @@ TEMPLATE_TEST_CASE("light-side next sampler: Dirac on the sphere, disk on the sl
   }
 }
 
+namespace {
+
+template <class T>
+bool same_point(const SurfacePoint<T>& a, const SurfacePoint<T>& b) {
+  return a.position == b.position && a.normal == b.normal && a.shading_normal == b.shading_normal &&
+         a.primitive_id == b.primitive_id && a.material_id == b.material_id && a.kind == b.kind;
+}
+
+template <class S>
+bool same_sample(const SegmentSample<S>& a, const SegmentSample<S>& b) {
+  return same_point(a.segment.x, b.segment.x) && same_point(a.segment.y, b.segment.y) && a.direction == b.direction &&
+         a.factor == b.factor && a.pdf == b.pdf && a.weight == b.weight && a.delta == b.delta;
+}
+
+/// NextSegmentSampler::advance against sample(): `paths` paths of up to `steps` draws from
+/// `start`, each draw by both from equal generators. advance must give sample()'s segment and
+/// numbers bit for bit and use the same uniforms; where sample() gives nullopt it returns
+/// false and leaves the sample as it was. Returns {draws compared, paths ended by a failed draw}.
+template <class Smp, class Scn, class S>
+std::pair<int, int> check_advance(const Smp& smp, const Scn& scene, const SegmentSample<S>& start, int paths, int steps,
+                                  std::uint64_t seed) {
+  Pcg32 rng(seed, 3);
+  int compared = 0, ended = 0, wrong = 0;
+  for (int p = 0; p < paths; ++p) {
+    SegmentSample<S> s = start;
+    for (int k = 0; k < steps; ++k) {
+      Pcg32 a = rng, b = rng;
+      const auto next = smp.sample(scene, {s.segment, s.direction}, a);
+      const SegmentSample<S> before = s;
+      const bool advanced = smp.advance(scene, s, b);
+      ++compared;
+      wrong += advanced != bool(next) || a.next_u32() != b.next_u32();
+      rng = a;
+      if (!next) {
+        wrong += !same_sample(s, before);
+        ++ended;
+        break;
+      }
+      wrong += !same_sample(s, *next);
+    }
+  }
+  CHECK(wrong == 0);
+  return {compared, ended};
+}
+
+template <class S, class T>
+SegmentSample<S> sample_of(const Segment<T>& s) {
+  return SegmentSample<S>{s, s.direction(), S(1), T(1), S(1), false};
+}
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("next-segment sampler: advance is sample() in place, bit for bit", "[samplers]", float, double) {
+  using T = TestType;
+  {  // Dirac kernel in the sphere: long paths.
+    const auto scene = make_sphere<T>();
+    const NextSegmentSampler<Sphere<T>, DiracKernel<T>> smp{DiracKernel<T>{}};
+    const auto start = sample_of<T>(sphere_segment(scene, Vec3<T>(T(0.2), T(0.3), T(-0.9)), Vec3<T>(T(-0.5), T(0.1), T(0.8))));
+    CHECK(check_advance(smp, scene, start, 200, 8, 21).first == 1600);
+    // A segment arriving from behind its end's surface: the one-sided BSDF draws nothing.
+    const Segment<T> inside = sphere_segment(scene, Vec3<T>(T(0.2), T(0.3), T(-0.9)), Vec3<T>(T(-0.5), T(0.1), T(0.8)));
+    SegmentSample<T> behind = sample_of<T>(inside);
+    behind.direction = -behind.direction;
+    CHECK(check_advance(smp, scene, behind, 10, 3, 22) == std::pair<int, int>(10, 10));
+  }
+  {  // Disk kernel between the slab's planes: junctions drawn around y.
+    const SlabWithCamera<T> scene;
+    const NextSegmentSampler<SlabWithCamera<T>, DiskKernel<T>> smp{DiskKernel<T>(T(0.3))};
+    const Segment<T> s{scene.point_on(st::SlabSide::b, T(0.7), T(0.1)), scene.point_on(st::SlabSide::a, T(0.2), T(0.3))};
+    CHECK(check_advance(smp, scene, sample_of<T>(s), 200, 6, 23).first > 1000);
+  }
+  {  // Rays from the lit square escape (an end at infinity), after which no draw continues.
+    using Scn = st::DiskLitPlane<T>;
+    const Scn scene(st::DiskLitPlaneParameters<T>{}, {Vec2<T>(0, 0)});
+    const NextSegmentSampler<Scn, DiracKernel<T>> smp{DiracKernel<T>{}};
+    const Segment<T> down{SurfacePoint<T>::at_point(Vec3<T>(T(0.1), T(0.2), T(0.5))),
+                          SurfacePoint<T>::on_surface(Vec3<T>(T(0.3), T(-0.1), 0), Vec3<T>(0, 0, 1), 0, 0)};
+    const auto [compared, ended] = check_advance(smp, scene, sample_of<T>(down), 300, 4, 24);
+    CHECK(ended > 200);  // most draws escape past the disk
+    CHECK(compared > ended);
+  }
+}
+
 TEMPLATE_TEST_CASE("approximate samplers: Dirac weight, kernel density (N33)", "[samplers]", float, double) {
   using T = TestType;
   const auto scene = make_sphere<T>();

@@ -53,6 +53,25 @@ class NextSegmentSampler {
     }
   }
 
+  /// sample() in place, for sequential estimators: `s`, the sample being continued, becomes
+  /// its successor, drawn from the same uniforms with the same numbers, without a second
+  /// sample object; false (and `s` unchanged) where sample() returns nullopt.
+  template <UniformSource<T> R>
+  [[nodiscard]] SEGPATH_FORCE_INLINE bool advance(const Scn& scene, SegmentSample<S>& s, R& rng) const noexcept {
+    const Vec2<T> u_kernel = uniform2<T>(rng);
+    const Vec2<T> u_bsdf = uniform2<T>(rng);
+    const T u_lobe = rng.template uniform<T>();
+    if (s.segment.y.kind != PointKind::surface) return false;
+    if constexpr (K::is_dirac) {
+      (void)u_kernel;
+      return advance_from(scene, s, s.segment.y, T(1), u_bsdf, u_lobe);
+    } else {
+      const auto junction = kernel_.sample(KernelSampleQuery<T>{s.segment, u_kernel});
+      if (!junction || !(junction->pdf > T(0))) return false;
+      return advance_from(scene, s, junction->point, junction->pdf, u_bsdf, u_lobe);
+    }
+  }
+
   /// p(s | s_i) of (N31) for any segment s as if y were the first hit from x:
   /// p_K(x | s_i) direction_pdf(y_i, -s^_i, s^) area_jacobian(s) (the last two grouped as
   /// solid_angle_to_area, so rounding differs from that product).
@@ -97,6 +116,33 @@ class NextSegmentSampler {
     if (found) return segment_to(prev, junction, junction_pdf, *bsdf, found->point, found->distance);
     // A ray that leaves the scene ends at infinity (a `direction` endpoint).
     return segment_to(prev, junction, junction_pdf, *bsdf, SurfacePoint<T>::at_infinity(bsdf->direction), T(1));
+  }
+
+  /// advance()'s continue_from: the same numbers, written over `s` once everything of the
+  /// previous segment has been read.
+  SEGPATH_FORCE_INLINE bool advance_from(const Scn& scene, SegmentSample<S>& s, const SurfacePoint<T>& junction,
+                                         T junction_pdf, const Vec2<T>& u_bsdf, T u_lobe) const noexcept {
+    const auto bsdf = scene.bsdf().sample(BsdfSampleQuery<T>{s.segment.y, -s.direction, u_bsdf, u_lobe, Transport::radiance});
+    if (!bsdf || !(bsdf->pdf > T(0))) return false;
+    const auto found = scene.intersect(IntersectQuery<T>{Ray<T>{junction.position, bsdf->direction}});
+    if (found) advance_to(s, junction, junction_pdf, *bsdf, found->point, found->distance);
+    else advance_to(s, junction, junction_pdf, *bsdf, SurfacePoint<T>::at_infinity(bsdf->direction), T(1));
+    return true;
+  }
+
+  SEGPATH_FORCE_INLINE void advance_to(SegmentSample<S>& s, const SurfacePoint<T>& junction, T junction_pdf,
+                                       const BsdfSample<S>& bsdf, const SurfacePoint<T>& y, T distance) const noexcept {
+    const T cos_x = endpoint_cosine(junction, bsdf.direction);
+    const T area_factor = solid_angle_to_area(T(1), junction, y, bsdf.direction, distance);
+    T k = T(1);
+    if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{s.segment, Segment<T>{junction, y}});
+    s.segment.x = junction;  // may be s.segment.y itself (Dirac kernel): copied before y changes
+    s.segment.y = y;
+    s.direction = bsdf.direction;
+    s.factor = link_factor(k, bsdf.value, cos_x * area_factor);
+    s.pdf = junction_pdf * bsdf.pdf * area_factor;
+    s.weight = bsdf.value * ((k / junction_pdf) * cos_x / bsdf.pdf);
+    s.delta = bsdf.delta;
   }
 
   /// The sample for the segment junction -> y: factor, density and weight, written straight
