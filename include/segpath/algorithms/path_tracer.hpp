@@ -79,17 +79,17 @@ class PathTracer {
   void estimate(const Scn& scene, const EstimateQuery& q, R& rng, Sink& sink) const noexcept {
     using Sample = std::optional<SegmentSample<S>>;
     S total(T(0));
-    Sample slots[2];
-    ::new (static_cast<void*>(&slots[0])) Sample(first_.sample(scene, {q.pixel}, rng));
-    if (!slots[0]) {
+    SegmentSample<S> s;  // the path's last segment, continued in place (NextSegmentSampler::advance)
+    if (auto first = first_.sample(scene, {q.pixel}, rng)) {
+      s = *first;
+    } else {
       sink.add(q.pixel, total);
       return;
     }
-    S beta = slots[0]->weight;
+    S beta = s.weight;
     bool reached_by_bsdf = false;  // false: the sensor segment or a delta lobe (no NEE rival)
     const auto& emitter = scene.emitter();
-    for (std::size_t length = 1, current = 0;; ++length, current ^= 1u) {
-      const SegmentSample<S>& s = *slots[current];
+    for (std::size_t length = 1;; ++length) {
       const S emitted = emission_factor(scene, s.segment, s.direction);
       if (!is_black(emitted)) {
         T w = T(1);
@@ -118,13 +118,11 @@ class PathTracer {
         }
       }
 
-      Sample& next = slots[current ^ 1u];
-      ::new (static_cast<void*>(&next)) Sample(next_.sample(scene, {s.segment, s.direction}, rng));
-      if (!next) break;
-      beta = beta * next->weight;
-      reached_by_bsdf = !next->delta;
+      if (!next_.advance(scene, s, rng)) break;
+      beta = beta * s.weight;
+      reached_by_bsdf = !s.delta;
       if (options_.roulette_from != 0 && length >= options_.roulette_from) {
-        const T q = continuation_probability(next->weight, next->delta);
+        const T q = continuation_probability(s.weight, s.delta);
         if (q < T(1)) {
           if (!(rng.template uniform<T>() < q)) break;
           beta = beta / q;

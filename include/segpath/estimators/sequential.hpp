@@ -45,25 +45,20 @@ class SequentialEstimator {
   /// and the estimate is sum_k beta_k L_e(s_k).
   template <UniformSource<T> R, ContributionSink<S> Sink>
   SEGPATH_FORCE_INLINE void estimate(const Scn& scene, const EstimateQuery& q, R& rng, Sink& sink) const noexcept {
-    using Sample = std::optional<SegmentSample<S>>;
     S total = S(T(0));
-    // Two slots, alternating: each sample is constructed in place (guaranteed copy elision of
-    // the returned prvalue), and the technique of the next draw refers to the other slot.
-    Sample slots[2];
-    ::new (static_cast<void*>(&slots[0])) Sample(first_.sample(scene, {q.pixel}, rng));
-    if (!slots[0]) {
+    SegmentSample<S> s;  // one sample, continued in place (NextSegmentSampler::advance)
+    if (auto first = first_.sample(scene, {q.pixel}, rng)) {
+      s = *first;
+    } else {
       sink.add(q.pixel, total);
       return;
     }
-    S beta = slots[0]->weight;
-    for (std::size_t length = 1, current = 0;; ++length, current ^= 1u) {
-      const SegmentSample<S>& s = *slots[current];
+    S beta = s.weight;
+    for (std::size_t length = 1;; ++length) {
       if (length >= lengths_.min) total += beta * emission_factor(scene, s.segment, s.direction);
       if (length == lengths_.max) break;
-      Sample& next = slots[current ^ 1u];
-      ::new (static_cast<void*>(&next)) Sample(next_.sample(scene, {s.segment, s.direction}, rng));
-      if (!next) break;  // samplers return only samples with pdf > 0 (SegmentSampler, 7.)
-      beta = beta * next->weight;
+      if (!next_.advance(scene, s, rng)) break;  // samplers return only samples with pdf > 0 (SegmentSampler, 7.)
+      beta = beta * s.weight;
       if (is_black(beta)) break;
     }
     if (!is_finite(total)) {
