@@ -40,7 +40,7 @@ class SphereInterior {
 
   /// `probe_directions`: one probe per direction, measuring L at center + R * direction.
   SphereInterior(const SphereInteriorParameters<T>& p, const std::vector<Vec3<T>>& probe_directions)
-      : p_(validated(p)), sensor_(probe_rays(p, probe_directions)) {}
+      : p_(validated(p)), inverse_radius_(T(1) / p.radius), sensor_(probe_rays(p, probe_directions)) {}
 
   // ---- closed forms -------------------------------------------------------------------
   [[nodiscard]] T emission_at(const Vec3<T>& x) const noexcept { return p_.emission_mean + glm::dot(p_.emission_gradient, unit(x)); }
@@ -143,7 +143,7 @@ class SphereInterior {
   }
 
  private:
-  [[nodiscard]] Vec3<T> unit(const Vec3<T>& x) const noexcept { return (x - p_.center) / p_.radius; }
+  [[nodiscard]] Vec3<T> unit(const Vec3<T>& x) const noexcept { return (x - p_.center) * inverse_radius_; }
 
   static SphereInteriorParameters<T> validated(const SphereInteriorParameters<T>& p) {
     auto fail = [](const std::string& what) {
@@ -169,6 +169,7 @@ class SphereInterior {
   }
 
   SphereInteriorParameters<T> p_;
+  T inverse_radius_;
   ProbeSensor<T> sensor_;
 };
 
