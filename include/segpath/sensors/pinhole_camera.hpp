@@ -155,9 +155,10 @@ class PinholeCamera {
     if (q.pixel >= pixel_count()) return std::nullopt;
     const std::uint32_t x = q.pixel % width_;
     const std::uint32_t y = q.pixel / width_;
-    // Keep the raster point inside the pixel when x + u rounds up to x + 1 (float, large x).
-    const Vec2<T> raster(std::min(T(x) + q.u_direction.x, std::nextafter(T(x + 1), T(0))),
-                         std::min(T(y) + q.u_direction.y, std::nextafter(T(y + 1), T(0))));
+    // Keep the raster point inside the pixel when x + u rounds up to x + 1 (float, large x);
+    // nextafter, a libm call, only then.
+    const auto inside = [](T r, std::uint32_t end) { return r < T(end) ? r : std::min(r, std::nextafter(T(end), T(0))); };
+    const Vec2<T> raster(inside(T(x) + q.u_direction.x, x + 1), inside(T(y) + q.u_direction.y, y + 1));
     const Vec3<T> w = direction_through(raster);
     const T density = direction_density(w);
     if (!(density > T(0))) return std::nullopt;
