@@ -231,8 +231,20 @@ TEST_CASE("chains of several pieces count as that many segments, general or fact
     const std::vector<std::uint8_t> all(clustering.group_count(), 1);
     const int iterations = 1 + int(rng.next_u32() % 5);
     std::vector<double> radiance, factorised, scratch;
+    PropagationWorkspace<double> workspace;
     propagate(PropagationInputs<double, decltype(link)>{clustering, pool.emitted, pool.weighted_geometry, link, {}, {}, pieces},
-              iterations, radiance, scratch);
+              iterations, radiance, workspace);
+    // The lagged values it reports: at least one ring of p per ending slot of a chain of p > 1
+    // and a watch per start and ending slot; none without chains.
+    std::size_t ring_values = 0;
+    for (const std::uint32_t s : clustering.ending_segments()) ring_values += pieces[s] > 1 ? pieces[s] : 0;
+    if (ring_values > 0)
+      CHECK(workspace.lagged_bytes >= ring_values * sizeof(double) +
+                                          (clustering.ending_segments().size() + clustering.starting_segments().size()) * 4);
+    std::vector<double> unchained;
+    propagate(PropagationInputs<double, decltype(link)>{clustering, pool.emitted, pool.weighted_geometry, link, {}, {}, {}}, iterations,
+              unchained, workspace);
+    CHECK(workspace.lagged_bytes == 0);
     propagate(PropagationInputs<double, decltype(diffuse_link)>{clustering, pool.emitted, pool.weighted_geometry, diffuse_link,
                                                                 pool.diffuse, all, pieces},
               iterations, factorised, scratch);

@@ -293,6 +293,10 @@ TEMPLATE_TEST_CASE("next-segment sampler: advance is sample() in place, bit for 
     const NextSegmentSampler<SlabWithCamera<T>, DiskKernel<T>> smp{DiskKernel<T>(T(0.3))};
     const Segment<T> s{scene.point_on(st::SlabSide::b, T(0.7), T(0.1)), scene.point_on(st::SlabSide::a, T(0.2), T(0.3))};
     CHECK(check_advance(smp, scene, sample_of<T>(s), 200, 6, 23).first > 1000);
+    // A junction drawn, then no BSDF draw: the segment arrives from behind its end's surface.
+    SegmentSample<T> behind = sample_of<T>(s);
+    behind.direction = -behind.direction;
+    CHECK(check_advance(smp, scene, behind, 10, 3, 25) == std::pair<int, int>(10, 10));
   }
   {  // Rays from the lit square escape (an end at infinity), after which no draw continues.
     using Scn = st::DiskLitPlane<T>;

@@ -12,7 +12,6 @@
 #include "segpath/samplers/sensor_start.hpp"
 
 #include <cstddef>
-#include <new>
 #include <optional>
 #include <stdexcept>
 #include <string>

@@ -313,7 +313,7 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 /// What propagate_conditioned allocated besides its O(#segments) arrays, in bytes.
 struct ConditionedMemory {
   std::size_t junction_table = 0;  ///< the ConditionedJunction table (junction_cache_bytes at most)
-  std::size_t lagged = 0;          ///< the lagged values of chains (LaggedValues): grows with the chains only
+  std::size_t lagged = 0;          ///< the lagged values of chains and their watches: 0 without chains
 };
 
 /// `iterations` >= 1 Jacobi iterations over the groups of a JunctionSupport (clusters, disks)
@@ -528,7 +528,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     const ConditionedValues<S>& v = depth == 1 || end_watch[i] == detail::no_watch ? current[i] : lagged.at(end_watch[i], b);
     weighted[ending_segment[i]] = v.w[0] + v.w[1];
   });
-  return ConditionedMemory{table.value_bytes(), lagged.bytes()};
+  return ConditionedMemory{table.value_bytes(), lagged.bytes() + end_watch.capacity() * sizeof(std::uint32_t)};
 }
 
 }  // namespace segpath

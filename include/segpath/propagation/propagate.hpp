@@ -78,6 +78,9 @@ struct PropagationWorkspace {
   std::vector<S> starting_emitted, starting_value;
   // Per ending slot i, segment s: L_e(s), diffuse(s) (where factorising) and out(s).
   std::vector<S> ending_emitted, ending_diffuse, out;
+  /// Set by propagate: the bytes its lagged values of chains took (LaggedValues and the watch
+  /// of each start and end), 0 without chains. Not in bytes() nor bytes_per_segment.
+  std::size_t lagged_bytes = 0;
   /// At most.
   static constexpr std::size_t bytes_per_segment = sizeof(std::uint32_t) + sizeof(T) + 5 * sizeof(S);
   [[nodiscard]] std::size_t bytes() const noexcept {
@@ -185,6 +188,7 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
       if (const std::uint16_t p = in.pieces[ending_segment[i]]; p > 1) end_watch[i] = lagged.watch(std::uint32_t(i), p);
     lagged.allocate();
   }
+  workspace.lagged_bytes = lagged.bytes() + (start_watch.capacity() + end_watch.capacity()) * sizeof(std::uint32_t);
   for (int k = 0; k < iterations; ++k) {
     if (depth > 1) {
       const int budget = k + 1;

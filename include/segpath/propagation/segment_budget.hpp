@@ -50,8 +50,11 @@ class LaggedValues {
       values_[offset_[w] + std::size_t(budget % pieces_[w])] = values[slot_[w]];
     });
   }
-  /// The rings' bytes (after allocate).
-  [[nodiscard]] std::size_t bytes() const noexcept { return values_.capacity() * sizeof(V); }
+  /// The rings' and their watches' bytes.
+  [[nodiscard]] std::size_t bytes() const noexcept {
+    return values_.capacity() * sizeof(V) + (slot_.capacity() + offset_.capacity()) * sizeof(std::uint32_t) +
+           pieces_.capacity() * sizeof(std::uint16_t);
+  }
   /// A^(budget) of watch `id`, for budget >= 1 within its last p kept budgets.
   [[nodiscard]] const V& at(std::uint32_t id, int budget) const noexcept {
     return values_[offset_[id] + std::size_t(budget % pieces_[id])];

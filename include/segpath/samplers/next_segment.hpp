@@ -54,8 +54,10 @@ class NextSegmentSampler {
   }
 
   /// sample() in place, for sequential estimators: `s`, the sample being continued, becomes
-  /// its successor, drawn from the same uniforms with the same numbers, without a second
-  /// sample object; false (and `s` unchanged) where sample() returns nullopt.
+  /// its successor, drawn from the same uniforms by the same expressions, without a second
+  /// sample object; false (and `s` unchanged) where sample() returns nullopt. The numbers are
+  /// sample()'s bit for bit unless the compiler contracts multiply-adds (-ffp-contract=fast with
+  /// FMA, e.g. -march=native), which it may do differently in the two.
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE bool advance(const Scn& scene, SegmentSample<S>& s, R& rng) const noexcept {
     const Vec2<T> u_kernel = uniform2<T>(rng);

@@ -112,8 +112,8 @@ struct FilteringStats {
   /// In bytes_per_segment: what the propagation copied into slot order for the clusters it
   /// does not factorise (voxel support), for the whole pool.
   std::size_t propagation_copy_bytes = 0;
-  /// In bytes_per_segment: the path-conditioned propagation's lagged values of chains
-  /// (ConditionedMemory::lagged), for the whole pool.
+  /// In bytes_per_segment: the propagation's lagged values of chains (ConditionedMemory::lagged,
+  /// PropagationWorkspace::lagged_bytes), for the whole pool.
   std::size_t lagged_bytes = 0;
   /// Wall time of the stages of render_iteration: paths (pool), support (clusters or disk
   /// junctions), densities (MMIS denominators, light side), propagation (with its pair

@@ -68,6 +68,7 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
     propagate(PropagationInputs<S, CachedTransferLink<Scn>, J>{support, pool.emitted, weighted_geometry, cached, diffuse, factorised,
                                                                pool.pieces},
               iterations, radiance, workspace, parallel_for);
+    ctx.stats.lagged_bytes = workspace.lagged_bytes;
   } else {
     const auto& bsdf = scene.bsdf();
     auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
@@ -77,6 +78,7 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
     propagate(PropagationInputs<S, decltype(link), J>{support, pool.emitted, weighted_geometry, link, {}, {}, pool.pieces}, iterations,
               radiance,
               workspace, parallel_for);
+    ctx.stats.lagged_bytes = workspace.lagged_bytes;
   }
 }
 
