@@ -134,36 +134,43 @@ class NextSegmentSampler {
 
   SEGPATH_FORCE_INLINE void advance_to(SegmentSample<S>& s, const SurfacePoint<T>& junction, T junction_pdf,
                                        const BsdfSample<S>& bsdf, const SurfacePoint<T>& y, T distance) const noexcept {
-    const T cos_x = endpoint_cosine(junction, bsdf.direction);
-    const T area_factor = solid_angle_to_area(T(1), junction, y, bsdf.direction, distance);
-    T k = T(1);
-    if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{s.segment, Segment<T>{junction, y}});
+    const Terms terms = terms_of(s.segment, junction, junction_pdf, bsdf, y, distance);
     s.segment.x = junction;  // may be s.segment.y itself (Dirac kernel): copied before y changes
     s.segment.y = y;
     s.direction = bsdf.direction;
-    s.factor = link_factor(k, bsdf.value, cos_x * area_factor);
-    s.pdf = junction_pdf * bsdf.pdf * area_factor;
-    s.weight = bsdf.value * ((k / junction_pdf) * cos_x / bsdf.pdf);
+    s.factor = terms.factor;
+    s.pdf = terms.pdf;
+    s.weight = terms.weight;
     s.delta = bsdf.delta;
   }
 
-  /// The sample for the segment junction -> y: factor, density and weight, written straight
-  /// into the returned optional (one object, NRVO).
+  /// The sample for the segment junction -> y, written straight into the returned optional
+  /// (one object, NRVO; no default-initialised sample overwritten field by field).
   SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> segment_to(const Segment<T>& prev,
                                                                   const SurfacePoint<T>& junction, T junction_pdf,
                                                                   const BsdfSample<S>& bsdf, const SurfacePoint<T>& y,
                                                                   T distance) const noexcept {
     std::optional<SegmentSample<S>> out;
+    const Terms terms = terms_of(prev, junction, junction_pdf, bsdf, y, distance);
+    out.emplace(Segment<T>{junction, y}, bsdf.direction, terms.factor, terms.pdf, terms.weight, bsdf.delta);
+    return out;
+  }
+
+  /// Factor, density and weight of the segment junction -> y drawn from `prev`.
+  struct Terms {
+    S factor;
+    T pdf;
+    S weight;
+  };
+  SEGPATH_FORCE_INLINE Terms terms_of(const Segment<T>& prev, const SurfacePoint<T>& junction, T junction_pdf,
+                                      const BsdfSample<S>& bsdf, const SurfacePoint<T>& y, T distance) const noexcept {
     // (N17) factor K f_r G(s') and (N31) density p_K p_w |n_y . s^| / d^2 share |n_y . s^| / d^2.
     const T cos_x = endpoint_cosine(junction, bsdf.direction);
     const T area_factor = solid_angle_to_area(T(1), junction, y, bsdf.direction, distance);
     T k = T(1);
     if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{prev, Segment<T>{junction, y}});
-    // Built in one expression: no default-initialised sample overwritten field by field.
-    out.emplace(Segment<T>{junction, y}, bsdf.direction, link_factor(k, bsdf.value, cos_x * area_factor),
-                junction_pdf * bsdf.pdf * area_factor, bsdf.value * ((k / junction_pdf) * cos_x / bsdf.pdf),
-                bsdf.delta);
-    return out;
+    return Terms{link_factor(k, bsdf.value, cos_x * area_factor), junction_pdf * bsdf.pdf * area_factor,
+                 bsdf.value * ((k / junction_pdf) * cos_x / bsdf.pdf)};
   }
 
   K kernel_;
