@@ -395,6 +395,82 @@ TEMPLATE_TEST_CASE("MaterialSet dispatches on the material id", "[materials]", f
   }
 }
 
+namespace {
+
+/// HasScattersFrom's promise for one fixed direction w where scatters_from(p, w) is false:
+/// eval and pdf are 0 for every pair that has w as either direction (both modes), and sample
+/// with fixed w fails for every uniform. Returns the pairs and draws checked.
+template <class T, class B>
+int check_scatters_nothing(const B& bsdf, const SurfacePoint<T>& p, const Vec3<T>& w) {
+  int checked = 0;
+  for (double theta = 0; theta <= 180; theta += 7.5) {
+    for (double phi = 0.1; phi < 6.2; phi += 0.7) {
+      const Vec3<T> v = direction_at<T>(theta, phi);
+      for (const Transport mode : {Transport::radiance, Transport::importance}) {
+        CHECK(is_black(bsdf.eval(BsdfQuery<T>{p, w, v, mode})));
+        CHECK(is_black(bsdf.eval(BsdfQuery<T>{p, v, w, mode})));
+        CHECK(bsdf.pdf(BsdfQuery<T>{p, w, v, mode}) == T(0));
+        CHECK(bsdf.pdf(BsdfQuery<T>{p, v, w, mode}) == T(0));
+        ++checked;
+      }
+    }
+  }
+  for (double u = 0.05; u < 1; u += 0.15) {
+    for (double lobe : {0.01, 0.5, 0.99}) {
+      for (const Transport mode : {Transport::radiance, Transport::importance}) {
+        CHECK_FALSE(bsdf.sample(BsdfSampleQuery<T>{p, w, Vec2<T>(T(u), T(1 - u)), T(lobe), mode}));
+        ++checked;
+      }
+    }
+  }
+  return checked;
+}
+
+/// scatters_from over a sweep of fixed directions: true above the surface (and, for a
+/// two-sided material, below it), and where false, nothing scatters (check_scatters_nothing).
+template <class T, class B>
+void check_scatters_from(const B& bsdf, bool two_sided) {
+  static_assert(HasScattersFrom<B, Color<T>>);
+  const auto p = test_point<T>();
+  int behind = 0;
+  for (double theta = 0; theta <= 180; theta += 2.5) {
+    for (double phi : {0.3, 2.9, 5.1}) {
+      const Vec3<T> w = direction_at<T>(theta, phi);
+      INFO("theta " << theta << ", phi " << phi);
+      if (theta < 89 || (two_sided && theta > 91)) CHECK(bsdf.scatters_from(p, w));
+      if (!bsdf.scatters_from(p, w)) behind += check_scatters_nothing<T>(bsdf, p, w) > 0;
+    }
+  }
+  CHECK(behind >= (two_sided ? 0 : 3 * 36));  // every direction below a one-sided surface
+}
+
+}  // namespace
+
+TEMPLATE_TEST_CASE("scatters_from is false only where nothing scatters", "[materials]", float, double) {
+  using T = TestType;
+  SECTION("Lambertian") { check_scatters_from<T>(cornell_red<T>(), false); }
+  SECTION("Phong") { check_scatters_from<T>(cornell_phong<T>(), false); }
+  SECTION("Glossy") { check_scatters_from<T>(cornell_glossy<T>(), false); }
+  SECTION("Mirror") { check_scatters_from<T>(Mirror<Color<T>>(), false); }
+  SECTION("Dielectric") { check_scatters_from<T>(Dielectric<Color<T>>(T(1.6)), true); }
+  SECTION("MaterialSet, and a point without a material") {
+    MaterialSet<Color<T>> set;
+    const auto red = set.add(cornell_red<T>());
+    const auto glass = set.add(Dielectric<Color<T>>(T(1.6)));
+    auto p = test_point<T>();
+    const Vec3<T> above = direction_at<T>(40, 1), below = direction_at<T>(140, 1);
+    p.material_id = red;
+    CHECK(set.scatters_from(p, above));
+    CHECK_FALSE(set.scatters_from(p, below));
+    p.material_id = glass;
+    CHECK(set.scatters_from(p, above));
+    CHECK(set.scatters_from(p, below));
+    p.material_id = invalid_id;  // black: eval 0, pdf 0, sample nullopt
+    CHECK_FALSE(set.scatters_from(p, above));
+    check_scatters_nothing<T>(set, p, above);
+  }
+}
+
 TEMPLATE_TEST_CASE("Material constructors reject bad parameters", "[materials]", float, double) {
   using T = TestType;
   const T inf = std::numeric_limits<T>::infinity();

@@ -99,4 +99,28 @@ concept HasIsDelta = requires(const B& b, const SurfacePoint<spectrum_scalar_t<S
   { b.is_delta(p) } -> std::same_as<bool>;
 };
 
+/// Optional customization point: `b.scatters_from(point, w)` is false where the direction `w`
+/// (unit, away from the point) lies on a side that the BSDF at `point` does not scatter: eval
+/// and pdf are 0 for every pair that has `w` as either direction, in both Transport modes, and
+/// sample with fixed `w` fails (a one-sided surface seen from behind, a black point). Light
+/// arriving there goes nowhere, so filtering does not pool a light-born segment that ends there
+/// (the sun's and the sky's rays that hit the outside of a closed box). True where unsure; BSDFs
+/// without it are taken to scatter from every side.
+template <class B, class S>
+concept HasScattersFrom = requires(const B& b, const SurfacePoint<spectrum_scalar_t<S>>& p,
+                                   const Vec3<spectrum_scalar_t<S>>& w) {
+  { b.scatters_from(p, w) } -> std::same_as<bool>;
+};
+
+/// Whether the BSDF at `point` may scatter light arriving from `w` (HasScattersFrom; true for
+/// BSDFs without the customization point).
+template <class S, class B>
+[[nodiscard]] bool scatters_from(const B& bsdf, const SurfacePoint<spectrum_scalar_t<S>>& point,
+                                 const Vec3<spectrum_scalar_t<S>>& w) noexcept {
+  if constexpr (HasScattersFrom<B, S>)
+    return bsdf.scatters_from(point, w);
+  else
+    return true;
+}
+
 }  // namespace segpath

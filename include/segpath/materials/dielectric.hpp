@@ -95,6 +95,11 @@ class Dielectric {
 
   [[nodiscard]] Scalar pdf(const BsdfQuery<Scalar>&) const noexcept { return Scalar(0); }
 
+  /// Two-sided: only a direction in the tangent plane scatters nothing (HasScattersFrom).
+  [[nodiscard]] bool scatters_from(const SurfacePoint<Scalar>& p, const Vec3<Scalar>& w) const noexcept {
+    return std::abs(glm::dot(w, p.normal)) > one_sided_epsilon<Scalar>;
+  }
+
  private:
   Scalar eta_;
 };

@@ -75,6 +75,11 @@ class Glossy {
     return diffuse_probability_ * diffuse_.pdf(q) + phong_probability_ * phong_.pdf(q);
   }
 
+  /// One-sided, both lobes: nothing is scattered from behind the geometric normal (HasScattersFrom).
+  [[nodiscard]] bool scatters_from(const SurfacePoint<Scalar>& p, const Vec3<Scalar>& w) const noexcept {
+    return is_above(p, w);
+  }
+
  private:
   Lambertian<S> diffuse_;
   Phong<S> phong_;

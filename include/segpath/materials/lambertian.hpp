@@ -29,6 +29,11 @@ struct Lambertian {
     return BsdfSample<S>{direction, albedo * inv_pi<Scalar>, pdf, false};
   }
 
+  /// One-sided: nothing is scattered from behind the geometric normal (HasScattersFrom).
+  [[nodiscard]] bool scatters_from(const SurfacePoint<Scalar>& p, const Vec3<Scalar>& w) const noexcept {
+    return is_above(p, w);
+  }
+
   [[nodiscard]] Scalar pdf(const BsdfQuery<Scalar>& q) const noexcept {
     if (!both_above(q.point, q.to_sensor, q.to_light)) return Scalar(0);
     const Vec3<Scalar>& free = q.mode == Transport::radiance ? q.to_light : q.to_sensor;

@@ -76,6 +76,14 @@ class MaterialSet {
            (std::holds_alternative<Mirror<S>>(*m) || std::holds_alternative<Dielectric<S>>(*m));
   }
 
+  /// Whether the point's material scatters light arriving from `w` (the optional Bsdf
+  /// customization point `scatters_from`, concepts/bsdf.hpp); a point without one is black.
+  [[nodiscard]] bool scatters_from(const SurfacePoint<Scalar>& p, const Vec3<Scalar>& w) const noexcept {
+    const Material<S>* m = find(p.material_id);
+    if (m == nullptr) return false;
+    return dispatch(*m, [&](const auto& b) noexcept { return b.scatters_from(p, w); });
+  }
+
   /// The albedo when the point's material is Lambertian (the optional Bsdf customization
   /// point `lambertian_albedo`, concepts/bsdf.hpp), else nullopt.
   [[nodiscard]] std::optional<S> lambertian_albedo(const SurfacePoint<Scalar>& p) const noexcept {

@@ -44,6 +44,11 @@ class Mirror {
 
   [[nodiscard]] Scalar pdf(const BsdfQuery<Scalar>&) const noexcept { return Scalar(0); }
 
+  /// One-sided: nothing is scattered from behind the geometric normal (HasScattersFrom).
+  [[nodiscard]] bool scatters_from(const SurfacePoint<Scalar>& p, const Vec3<Scalar>& w) const noexcept {
+    return is_above(p, w);
+  }
+
  private:
   S reflectance_;
 };

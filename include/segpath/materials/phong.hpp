@@ -78,6 +78,11 @@ class Phong {
     return pdf_scale_ * lobe_of(q.point, q.to_sensor, q.to_light);
   }
 
+  /// One-sided: nothing is scattered from behind the geometric normal (HasScattersFrom).
+  [[nodiscard]] bool scatters_from(const SurfacePoint<Scalar>& p, const Vec3<Scalar>& w) const noexcept {
+    return is_above(p, w);
+  }
+
  private:
   /// cos^n(alpha) where the lobe is non-zero, else 0.
   [[nodiscard]] Scalar lobe_of(const SurfacePoint<Scalar>& p, const Vec3<Scalar>& a,

@@ -6,6 +6,7 @@
 #pragma once
 
 #include "segpath/algorithms/filtering/context.hpp"
+#include "segpath/concepts/bsdf.hpp"
 #include "segpath/core/geometry.hpp"
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/rng.hpp"
@@ -43,8 +44,13 @@ void add_next_event(const Scn& scene, std::uint32_t source, R& rng,
   if (r.segment.y.kind != PointKind::direction && !(r.segment.length_squared() > T(0))) return;
   r.geometry = geometry_term(r.segment);
   if (!(r.geometry > T(0)) || !std::isfinite(r.geometry)) return;
-  if (!scene.visible(VisibilityQuery<T>{r.segment.x, r.segment.y})) return;
   r.first_direction = r.last_direction = r.segment.direction();
+  // A light behind x's one-sided surface (the sun seen from the back of a wall) lights nothing
+  // there (HasScattersFrom): not pooled, no shadow ray; the draw still counts as a technique
+  // sample. As for light paths below, what it gave other surfaces in x's kernel leaked through
+  // the wall.
+  if (!scatters_from<S>(scene.bsdf(), x, r.first_direction)) return;
+  if (!scene.visible(VisibilityQuery<T>{r.segment.x, r.segment.y})) return;
   r.chain = S(T(1));
   r.flags = camera_born | (e->delta ? delta_light : 0);
   r.parent = source;
@@ -199,6 +205,12 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
       if (!kept) r.geometry = endpoint_cosine(r.segment.x, r.first_direction);  // a kept chain keeps its first G
       continue;
     }
+    // Light arriving at x from behind a one-sided surface (the sun's and the sky's rays on the
+    // outside of a closed box) goes nowhere (HasScattersFrom): x's own BSDF passes none of it
+    // on and gives every draw from x density 0, so the segment is not pooled. Pooled, it gave
+    // light only to other surfaces in x's kernel (a corner's floor), light leaking through the
+    // wall: a kernel bias, which this removes. It also kept most wall clusters from factorising.
+    if (x.kind == PointKind::surface && !scatters_from<S>(bsdf, x, r.first_direction)) return;
     // A technique sample whether or not its draw succeeded (see trace_camera_path); a
     // delta surface that does not continue the chain ends the light path.
     const bool tries_predecessor = attempted && ctx.techniques.light_predecessors && !(prev && prev->delta);
