@@ -461,6 +461,31 @@ TEST_CASE("filtering pools no segment that brings light to the back of its x (su
   }
 }
 
+// VCM's light subpaths from the sun and the sky hit the closed box from outside as well: their
+// ends there light nothing and are not stored (a third of box 0's ends, half of box 3's).
+TEST_CASE("VCM stores no light end that light reaches from behind (sun, sky)", "[renderer]") {
+  for (const int box : {0, 3, 1}) {
+    INFO("box " << box);
+    const RenderScene cornell = renderer::make_cornell(box, 16, 16);
+    const renderer::ThreadCountingScene scene(cornell);
+    segpath::VcmOptions o;
+    o.light_path_factor = 4;
+    const segpath::VertexConnectionMerging<renderer::ThreadCountingScene> vcm(o);
+    segpath::Framebuffer<renderer::Color> image(16, 16);
+    segpath::DropCounters drops;
+    vcm.render_iteration_at(scene, 0, 0.05f, image, drops);
+    std::size_t surface = 0, behind = 0;
+    for (const auto& end : vcm.light_ends()) {
+      if (end.point.kind != segpath::PointKind::surface) continue;
+      ++surface;
+      behind += !scene.bsdf().scatters_from(end.point, end.to_previous);
+    }
+    INFO(surface << " stored ends on surfaces");
+    CHECK(surface > 300);
+    CHECK(behind == 0);
+  }
+}
+
 // Next-event segments end on box 1's emitter in crowds, and the emitter reflects nothing
 // (black Lambertian): f_r = 0 at those ends whatever their directions, so their clusters still
 // factorise (the sum over starts is never needed). Before, one end arriving from the emitter's

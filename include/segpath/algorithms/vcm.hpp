@@ -4,6 +4,7 @@
 // weighted by multi-technique MIS (N36) through Georgiev et al. 2012's recursive quantities.
 #pragma once
 
+#include "segpath/concepts/bsdf.hpp"
 #include "segpath/concepts/scene.hpp"
 #include "segpath/integrand/contribution.hpp"
 #include "segpath/core/drop.hpp"
@@ -239,6 +240,14 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
       segment = next->segment;
       direction = next->direction;
     }
+    // Only the last end can have light arriving from behind a one-sided surface (the sun's and
+    // the sky's rays on the outside of a closed box; every earlier end scattered). It lights
+    // nothing there (HasScattersFrom): connections through it evaluate its BSDF, 0; merges take
+    // it only at camera ends within 60 degrees of its normal, where the light is behind too
+    // unless the surfaces differ (light leaking through, a kernel bias). It is not kept.
+    if (const Vertex& last = out[count - 1];
+        last.point.kind == PointKind::surface && !scatters_from<S>(scene.bsdf(), last.point, last.to_previous))
+      --count;
     return count;
   }
 
@@ -260,6 +269,10 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     }
     return count;
   }
+
+  /// The light-subpath ends that the last render_iteration stored (in light-path order), which
+  /// its connections and merges read; for tests and diagnostics.
+  [[nodiscard]] std::span<const Vertex> light_ends() const noexcept { return scratch_.light_vertices; }
 
   /// The light-subpath ends along explicit points: points[0] is the light end y, out[i - 1]
   /// the end at points[i] (throughput 1). Returns the number of ends written.
