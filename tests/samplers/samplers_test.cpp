@@ -421,6 +421,41 @@ TEMPLATE_TEST_CASE("bridge samplers: factors, densities and Dirac reductions (N3
   }
 }
 
+namespace {
+/// The disk-lit plane, counting its visibility queries (shadow rays).
+template <class T>
+class ShadowRayCountingPlane : public st::DiskLitPlane<T> {
+ public:
+  using st::DiskLitPlane<T>::DiskLitPlane;
+  [[nodiscard]] bool visible(const VisibilityQuery<T>& q) const noexcept {
+    ++queries;
+    return st::DiskLitPlane<T>::visible(q);
+  }
+  mutable int queries = 0;
+};
+}  // namespace
+
+// A receiver above the one-sided disk light sees only its back, which emits nothing: PT used to
+// trace a shadow ray for every such draw (box 1's ceiling and light box, 8 % of PT's rays).
+TEMPLATE_TEST_CASE("next-event draws that see a one-sided emitter's back fail without a shadow ray", "[samplers]",
+                   float, double) {
+  using T = TestType;
+  using Scn = ShadowRayCountingPlane<T>;
+  const Scn scene(st::DiskLitPlaneParameters<T>{}, {Vec2<T>(0, 0)});
+  const LightBridgeSampler<Scn, DiracKernel<T>> nee{DiracKernel<T>{}};
+  const auto origin = SurfacePoint<T>::at_point(Vec3<T>(T(0.2), 0, T(3)));
+  const Segment<T> above{origin, SurfacePoint<T>::on_surface(Vec3<T>(T(0.1), 0, T(2)), Vec3<T>(0, 0, 1), 0, 0)};
+  const Segment<T> below{origin, SurfacePoint<T>::on_surface(Vec3<T>(T(0.1), 0, 0), Vec3<T>(0, 0, 1), 0, 0)};
+  Pcg32 rng(31, 0);
+  int drawn = 0;
+  for (int i = 0; i < 200; ++i) drawn += nee.sample(scene, {above}, rng).has_value();
+  CHECK(drawn == 0);
+  CHECK(scene.queries == 0);
+  for (int i = 0; i < 200; ++i) drawn += nee.sample(scene, {below}, rng).has_value();
+  CHECK(drawn == 200);  // the disk's front: every draw is visible
+  CHECK(scene.queries == 200);
+}
+
 TEMPLATE_TEST_CASE("occluded bridges are rejected and have density 0", "[samplers]", float, double) {
   using T = TestType;
   using Scn = st::DiskLitPlane<T>;

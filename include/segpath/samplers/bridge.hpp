@@ -102,7 +102,9 @@ class KernelBridgeSampler {
 
 /// Light-kernel bridge, i.e. next-event estimation (N34): x_i from the kernel around y_{i-1}
 /// (the Dirac kernel: y_{i-1} itself), y_i from the emitter's sample_towards(x_i), rejected
-/// unless V(x_i, y_i):  p(s_i | s_{i-1}) = p_K(x_i | s_{i-1}) p_L(y_i | x_i).
+/// unless V(x_i, y_i):  p(s_i | s_{i-1}) = p_K(x_i | s_{i-1}) p_L(y_i | x_i). A draw whose
+/// emission towards x_i is zero (a one-sided emitter seen from behind) is rejected before its
+/// shadow ray; pdf() keeps such segments, whose contribution is zero in every estimator.
 /// The (N17) factors it carries: K(s_{i-1}, s_i) G(s_i) L_e(s_i); the BSDF f_r(s_{i-1}, s_i) at
 /// y_{i-1} is the estimator's connection term. p_L is in the measure of y's kind (area,
 /// discrete for point lights, solid angle for distant lights); G drops the matching factors.
@@ -146,6 +148,8 @@ class LightBridgeSampler {
     if (!e || !(e->pdf > T(0)) || !std::isfinite(e->pdf)) return out;
     const Segment<T> s{x, e->point};
     if (s.y.kind != PointKind::direction && !(s.length_squared() > T(0))) return out;
+    // A draw that sees the emitter's back (one-sided) carries nothing: no shadow ray for it.
+    if (is_black(e->radiance)) return out;
     if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return out;
     const Vec3<T> direction = s.direction();
     const T g = geometry_term(s);
