@@ -454,6 +454,11 @@ TEMPLATE_TEST_CASE("next-event draws that see a one-sided emitter's back fail wi
   for (int i = 0; i < 200; ++i) drawn += nee.sample(scene, {below}, rng).has_value();
   CHECK(drawn == 200);  // the disk's front: every draw is visible
   CHECK(scene.queries == 200);
+  // The density agrees (SegmentSampler requirement 7): 0 towards the back, as the draws fail.
+  const SurfacePoint<T> disk = scene.disk_point(T(0.1), T(0.2));
+  CHECK(nee.unoccluded_pdf(scene, {above}, Segment<T>{above.y, disk}) == T(0));
+  CHECK(nee.pdf(scene, {above}, Segment<T>{above.y, disk}) == T(0));
+  CHECK(nee.pdf(scene, {below}, Segment<T>{below.y, disk}) > T(0));
 }
 
 TEMPLATE_TEST_CASE("occluded bridges are rejected and have density 0", "[samplers]", float, double) {

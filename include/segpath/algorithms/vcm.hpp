@@ -243,8 +243,8 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     // Only the last end can have light arriving from behind a one-sided surface (the sun's and
     // the sky's rays on the outside of a closed box; every earlier end scattered). It lights
     // nothing there (HasScattersFrom): connections through it evaluate its BSDF, 0; merges take
-    // it only at camera ends within 60 degrees of its normal, where the light is behind too
-    // unless the surfaces differ (light leaking through, a kernel bias). It is not kept.
+    // it only at camera ends within 60 degrees of its normal, where the light is behind as well
+    // on a flat surface (on a curved one, light leaking through it). It is not kept.
     if (const Vertex& last = out[count - 1];
         last.point.kind == PointKind::surface && !scatters_from<S>(scene.bsdf(), last.point, last.to_previous))
       --count;

@@ -104,7 +104,7 @@ class KernelBridgeSampler {
 /// (the Dirac kernel: y_{i-1} itself), y_i from the emitter's sample_towards(x_i), rejected
 /// unless V(x_i, y_i):  p(s_i | s_{i-1}) = p_K(x_i | s_{i-1}) p_L(y_i | x_i). A draw whose
 /// emission towards x_i is zero (a one-sided emitter seen from behind) is rejected before its
-/// shadow ray; pdf() keeps such segments, whose contribution is zero in every estimator.
+/// shadow ray, and pdf() is 0 for such a segment (requirement 7 of SegmentSampler).
 /// The (N17) factors it carries: K(s_{i-1}, s_i) G(s_i) L_e(s_i); the BSDF f_r(s_{i-1}, s_i) at
 /// y_{i-1} is the estimator's connection term. p_L is in the measure of y's kind (area,
 /// discrete for point lights, solid angle for distant lights); G drops the matching factors.
@@ -159,14 +159,16 @@ class LightBridgeSampler {
     return out;
   }
 
-  /// p_K(s.x | s_{i-1}) pdf_towards(s.y | s.x) for any segment s: the density of the kernel
-  /// and emitter draws, before the visibility test.
+  /// p_K(s.x | s_{i-1}) pdf_towards(s.y | s.x) for any segment s whose emitter end emits
+  /// towards s.x (0 otherwise): the density of the kernel and emitter draws, before the
+  /// visibility test.
   [[nodiscard]] T unoccluded_pdf(const Scn& scene, const Technique& t, const Segment<T>& s) const noexcept {
     if (s.y.kind != PointKind::direction && !(s.length_squared() > T(0))) return T(0);
     const T p_x = kernel_.pdf(KernelQuery<T>{t.camera, s});
     if (!(p_x > T(0))) return T(0);
     const T p_y = scene.emitter().pdf_towards(EmitterPdfTowardsQuery<T>{s.x, s.y});
     if (!(p_y > T(0))) return T(0);
+    if (is_black(scene.emitter().radiance(EmissionQuery<T>{s.y, -s.direction()}))) return T(0);  // as sample() rejects it
     return p_x * p_y;
   }
 

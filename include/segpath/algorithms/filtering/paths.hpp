@@ -47,8 +47,7 @@ void add_next_event(const Scn& scene, std::uint32_t source, R& rng,
   r.first_direction = r.last_direction = r.segment.direction();
   // A light behind x's one-sided surface (the sun seen from the back of a wall) lights nothing
   // there (HasScattersFrom): not pooled, no shadow ray; the draw still counts as a technique
-  // sample. As for light paths below, what it gave other surfaces in x's kernel leaked through
-  // the wall.
+  // sample (see trace_light_path for why nothing else changes).
   if (!scatters_from<S>(scene.bsdf(), x, r.first_direction)) return;
   if (!scene.visible(VisibilityQuery<T>{r.segment.x, r.segment.y})) return;
   r.chain = S(T(1));
@@ -207,9 +206,10 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
     }
     // Light arriving at x from behind a one-sided surface (the sun's and the sky's rays on the
     // outside of a closed box) goes nowhere (HasScattersFrom): x's own BSDF passes none of it
-    // on and gives every draw from x density 0, so the segment is not pooled. Pooled, it gave
-    // light only to other surfaces in x's kernel (a corner's floor), light leaking through the
-    // wall: a kernel bias, which this removes. It also kept most wall clusters from factorising.
+    // on and gives every draw from x density 0, so the segment is not pooled. Clusters and disks
+    // join points of one normal, where its direction is behind as well, so it carried light into
+    // no junction (at most, through a curved surface's kernel, light leaking through it). Pooled,
+    // it kept most wall clusters from factorising. Bridges then choose among the other targets.
     if (x.kind == PointKind::surface && !scatters_from<S>(bsdf, x, r.first_direction)) return;
     // A technique sample whether or not its draw succeeded (see trace_camera_path); a
     // delta surface that does not continue the chain ends the light path.
