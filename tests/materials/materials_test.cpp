@@ -428,20 +428,26 @@ int check_scatters_nothing(const B& bsdf, const SurfacePoint<T>& p, const Vec3<T
 
 /// scatters_from over a sweep of fixed directions: true above the surface (and, for a
 /// two-sided material, below it), and where false, nothing scatters (check_scatters_nothing).
+/// At the test point, and at one whose shading normal leans 20 degrees off its geometric one
+/// (the one-sided tests use the geometric normal).
 template <class T, class B>
 void check_scatters_from(const B& bsdf, bool two_sided) {
   static_assert(HasScattersFrom<B, Color<T>>);
-  const auto p = test_point<T>();
-  int behind = 0;
-  for (double theta = 0; theta <= 180; theta += 2.5) {
-    for (double phi : {0.3, 2.9, 5.1}) {
-      const Vec3<T> w = direction_at<T>(theta, phi);
-      INFO("theta " << theta << ", phi " << phi);
-      if (theta < 89 || (two_sided && theta > 91)) CHECK(bsdf.scatters_from(p, w));
-      if (!bsdf.scatters_from(p, w)) behind += check_scatters_nothing<T>(bsdf, p, w) > 0;
+  auto tilted = test_point<T>();
+  tilted.shading_normal = direction_at<T>(20, 0.7);
+  for (const bool tilt : {false, true}) {
+    const SurfacePoint<T> p = tilt ? tilted : test_point<T>();
+    int behind = 0;
+    for (double theta = 0; theta <= 180; theta += 2.5) {
+      for (double phi : {0.3, 0.7, 2.9, 5.1}) {
+        const Vec3<T> w = direction_at<T>(theta, phi);
+        INFO("theta " << theta << ", phi " << phi << ", shading normal tilted " << tilt);
+        if (theta < 89 || (two_sided && theta > 91)) CHECK(bsdf.scatters_from(p, w));
+        if (!bsdf.scatters_from(p, w)) behind += check_scatters_nothing<T>(bsdf, p, w) > 0;
+      }
     }
+    CHECK(behind >= (two_sided ? 0 : 4 * 36));  // every direction below a one-sided surface
   }
-  CHECK(behind >= (two_sided ? 0 : 3 * 36));  // every direction below a one-sided surface
 }
 
 }  // namespace
