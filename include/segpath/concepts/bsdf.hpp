@@ -103,9 +103,9 @@ concept HasIsDelta = requires(const B& b, const SurfacePoint<spectrum_scalar_t<S
 /// (unit, away from the point) lies on a side that the BSDF at `point` does not scatter: eval
 /// and pdf are 0 for every pair that has `w` as either direction, in both Transport modes, and
 /// sample with fixed `w` fails (a one-sided surface seen from behind, a black point). Light
-/// arriving there goes nowhere, so filtering does not pool a light-born segment that ends there
-/// (the sun's and the sky's rays that hit the outside of a closed box). True where unsure; BSDFs
-/// without it are taken to scatter from every side.
+/// arriving there goes nowhere, so filtering does not pool, and VCM does not store, a light
+/// path's end there (the sun's and the sky's rays that hit the outside of a closed box). True
+/// where unsure; BSDFs without it are taken to scatter from every side.
 template <class B, class S>
 concept HasScattersFrom = requires(const B& b, const SurfacePoint<spectrum_scalar_t<S>>& p,
                                    const Vec3<spectrum_scalar_t<S>>& w) {

@@ -168,7 +168,7 @@ class LightBridgeSampler {
     if (!(p_x > T(0))) return T(0);
     const T p_y = scene.emitter().pdf_towards(EmitterPdfTowardsQuery<T>{s.x, s.y});
     if (!(p_y > T(0))) return T(0);
-    if (is_black(scene.emitter().radiance(EmissionQuery<T>{s.y, -s.direction()}))) return T(0);  // as sample() rejects it
+    if (is_black(emission_factor(scene, s))) return T(0);  // as sample() rejects it
     return p_x * p_y;
   }
 
