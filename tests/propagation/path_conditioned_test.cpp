@@ -378,14 +378,18 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
       }
     };
     ConditionedMemory memory;
+    std::size_t start_records = 0;  // a watch index per ending slot and per start record
     if (disk) {
       memory = propagate_conditioned(hood.junctions, inputs, depth, result);
       count_rings(hood.junctions.ending_segments());
+      start_records = p.n;
     } else {
       memory = propagate_conditioned(hood.clustering, inputs, depth, result);
       count_rings(hood.clustering.ending_segments());
+      start_records = std::size(hood.clustering.starting_segments());
     }
-    const std::size_t rings = ring_values * sizeof(ConditionedValues<double>) + (watches > 0 ? ending_slots * 4 : 0);
+    const std::size_t rings =
+        ring_values * sizeof(ConditionedValues<double>) + (watches > 0 ? (ending_slots + start_records) * 4 : 0);
     CHECK(memory.lagged >= rings + watches * 10);
     CHECK(memory.lagged <= rings + watches * 20);
     CHECK(memory.junction_table == 0);

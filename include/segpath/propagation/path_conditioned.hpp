@@ -216,6 +216,7 @@ template <Real T>
 struct ConditionedStart {
   T geometry = 0, forced_weight = 0;
   std::uint32_t source = no_cluster;  ///< the ending slot s''s values are read from (no_cluster: emission only)
+  std::uint16_t pieces = 1;           ///< p(s') (segment_budget.hpp)
   std::uint8_t flags = 0;
 };
 
@@ -273,12 +274,12 @@ SEGPATH_FORCE_INLINE ConditionedJunction<S> conditioned_coefficients(const Condi
   return j;
 }
 
-/// Adds a junction to s's values `acc`, reading s''s values `next` of the previous iteration.
-/// Linear in `next`: a factorised cluster passes sums over successors of one flag class.
+/// Adds a junction to s's values `acc`, reading `v`, the U (j.code & 1: s forces s') or else the
+/// W values of s' of the previous iteration. Linear in `v`: a factorised cluster passes sums over
+/// successors of one flag class.
 template <Spectrum S>
-SEGPATH_FORCE_INLINE void apply_junction(const ConditionedJunction<S>& j, const ConditionedValues<S>& next,
+SEGPATH_FORCE_INLINE void apply_junction(const ConditionedJunction<S>& j, const std::array<S, 2>& v,
                                          ConditionedValues<S>& acc) noexcept {
-  const std::array<S, 2>& v = (j.code & 1) ? next.u : next.w;
   const S c0 = j.transfer * v[0], c1 = j.transfer * v[1];
   // e(s) from e(s') = 0 is at most e(s) from e(s') = 1, so three cases; constant indices keep
   // acc in registers (an indexed acc would chain every pair through memory).
@@ -305,7 +306,8 @@ template <Spectrum S>
 SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_scalar_t<S>>& end, std::uint8_t fp,
                                                spectrum_scalar_t<S> forced_weight, const S& transfer, spectrum_scalar_t<S> ql,
                                                const ConditionedValues<S>& next, ConditionedValues<S>& acc) noexcept {
-  apply_junction(conditioned_coefficients(end, fp, forced_weight, transfer, ql), next, acc);
+  const ConditionedJunction<S> j = conditioned_coefficients(end, fp, forced_weight, transfer, ql);
+  apply_junction(j, (j.code & 1) ? next.u : next.w, acc);
 }
 
 }  // namespace detail
@@ -357,10 +359,14 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   // Everything per slot (or start record), in group order: an iteration reads the values of s'
   // at random once per record and the rest in order.
   // One set of values per ending slot, updated in place: a sweep reads the previous iteration's
-  // values only through `starting_values`, gathered before it starts.
+  // values only through the starts' copies, gathered before it starts. The copies keep W and U
+  // apart: a start reads U only where a junction can force it (forced_weight > 0), so the
+  // gather reads 24 of a slot's 48 bytes (Rgb<float>) at random; other starts keep U = 0.
+  using Pair = std::array<S, 2>;
   std::vector<detail::ConditionedEnd<T>> end(ending_slots);
   std::vector<detail::ConditionedEmission<S>> emission(ending_slots);
-  std::vector<ConditionedValues<S>> current(ending_slots), starting_values(record.size());
+  std::vector<ConditionedValues<S>> current(ending_slots);
+  std::vector<Pair> starting_w(record.size()), starting_u(record.size());
   std::vector<detail::ConditionedStart<T>> start(record.size());
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     const std::uint32_t s = ending_segment[i];
@@ -371,7 +377,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   auto emission_values = [&](std::uint32_t i) { return emission[i].values(); };
   for_blocks(record.size(), parallel_for, [&](std::size_t r) {
     const std::uint32_t sp = record.segment(r);
-    start[r] = {in.geometry[sp], detail::conditioned_forced_weight(in, sp), support.ending_slot_of(sp), in.flags[sp]};
+    start[r] = {in.geometry[sp], detail::conditioned_forced_weight(in, sp), support.ending_slot_of(sp),
+                in.pieces.empty() ? std::uint16_t(1) : in.pieces[sp], in.flags[sp]};
   });
   // Classes of s' in a factorised group: 0 not a potential light technique, 1 potential,
   // 2 light technique sample. There q_l(s | s') is the same for every potential s', so each
@@ -427,6 +434,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     }
     return detail::conditioned_coefficients(end[i], st.flags, st.forced_weight, S(f * (kernel * st.geometry)), ql);
   };
+  // What junction j reads of starting slot j's record r.
+  auto read = [&](const Junction& j, std::uint32_t r) -> const Pair& { return (j.code & 1) ? starting_u[r] : starting_w[r]; };
   // s -> s' is a junction: s' carries weight and is not s.
   auto joins = [&](std::uint32_t i, std::uint32_t j) {
     const detail::ConditionedStart<T>& st = start[record(j)];
@@ -442,27 +451,43 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   // A^(k + 1 - p), which `lagged` keeps for p > 1 (as for the results of chains). A start's
   // source is its own segment's ending slot, so one watch per slot serves both.
   const int depth = detail::max_pieces(in.pieces, n);
+  // The watches of starts come first, in record order, so that the gather reads their rings in
+  // order; then those of slots that no start reads (their results only).
   detail::LaggedValues<ConditionedValues<S>> lagged;
-  std::vector<std::uint32_t> end_watch;
+  std::vector<std::uint32_t> end_watch, start_watch;
   if (depth > 1) {
     end_watch.assign(ending_slots, detail::no_watch);
+    start_watch.assign(record.size(), detail::no_watch);
+    for (std::size_t r = 0; r < record.size(); ++r)
+      if (const std::uint32_t i = start[r].source; i != no_cluster && start[r].pieces > 1)
+        end_watch[i] = start_watch[r] = lagged.watch(i, start[r].pieces);
     for (std::size_t i = 0; i < ending_slots; ++i)
-      if (const std::uint16_t p = in.pieces[ending_segment[i]]; p > 1) end_watch[i] = lagged.watch(std::uint32_t(i), p);
+      if (const std::uint16_t p = in.pieces[ending_segment[i]]; p > 1 && end_watch[i] == detail::no_watch)
+        end_watch[i] = lagged.watch(std::uint32_t(i), p);
     lagged.allocate();
   }
   for (int k = 0; k < iterations; ++k) {
     for_blocks(record.size(), parallel_for, [&](std::size_t r) {
-      const std::uint32_t i = start[r].source;
-      const std::uint32_t sp = record.segment(r);
-      const int b = depth == 1 ? k : k + 1 - int(in.pieces[sp]);
-      if (b < 0) {
-        starting_values[r] = ConditionedValues<S>{};
-      } else if (i == no_cluster) {
-        starting_values[r] = detail::conditioned_emission(in, sp);
-      } else if (depth == 1 || end_watch[i] == detail::no_watch) {
-        starting_values[r] = b == 0 ? emission_values(i) : current[i];
+      const detail::ConditionedStart<T>& st = start[r];
+      const std::uint32_t i = st.source;
+      const bool forceable = st.forced_weight > T(0);
+      const int b = depth == 1 ? k : k + 1 - int(st.pieces);
+      auto gather = [&](const ConditionedValues<S>& v) {
+        starting_w[r] = v.w;
+        if (forceable) starting_u[r] = v.u;
+      };
+      // Before budget 0 a start reads nothing (its values are still the zeros they were made
+      // with); one without a source reads its emission from budget 0 on (written once).
+      if (b < 0 || (i == no_cluster && b > 0)) return;
+      if (i == no_cluster) {
+        gather(detail::conditioned_emission(in, record.segment(r)));
+      } else if (b == 0) {
+        gather(emission_values(i));
+      } else if (depth == 1 || start_watch[r] == detail::no_watch) {
+        starting_w[r] = current[i].w;
+        if (forceable) starting_u[r] = current[i].u;
       } else {
-        starting_values[r] = b == 0 ? emission_values(i) : lagged.at(end_watch[i], b);
+        gather(lagged.at(start_watch[r], b));
       }
     });
     detail::for_groups(support, parallel_for, [&](std::size_t g) {
@@ -476,10 +501,11 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
               const detail::ConditionedStart<T>& st = start[record(j)];
               if (!(st.geometry > T(0)) || j == skip) continue;
               const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
-              const ConditionedValues<S>& v = starting_values[record(j)];
-              for (int e = 0; e < 2; ++e) {
-                sum[k_class].w[e] += v.w[e] * st.geometry;
-                sum[k_class].u[e] += v.u[e] * (st.geometry * st.forced_weight);
+              const Pair& w = starting_w[record(j)];
+              for (int e = 0; e < 2; ++e) sum[k_class].w[e] += w[e] * st.geometry;
+              if (st.forced_weight > T(0)) {
+                const Pair& u = starting_u[record(j)];
+                for (int e = 0; e < 2; ++e) sum[k_class].u[e] += u[e] * (st.geometry * st.forced_weight);
               }
             }
             return sum;
@@ -487,7 +513,10 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
           auto values_of = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
             ConditionedValues<S> acc = emission_values(i);
             const detail::ClassJunctions<S>& junctions = class_junction[class_offset[g] + (i - ending.begin)];
-            for (int k_class = 0; k_class < 3; ++k_class) detail::apply_junction(junctions[k_class], sum[k_class], acc);
+            for (int k_class = 0; k_class < 3; ++k_class) {
+              const Junction j = junctions[k_class];
+              detail::apply_junction(j, (j.code & 1) ? sum[k_class].u : sum[k_class].w, acc);
+            }
             return acc;
           };
           const std::array<ConditionedValues<S>, 3> all = class_sums(no_cluster);
@@ -504,10 +533,13 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         ConditionedValues<S> acc = emission_values(i);
         if (const Junction* row = table.row(i, starting.begin)) {
           for (std::uint32_t j = starting.begin; j < starting.end; ++j, ++row)
-            if (joins(i, j)) detail::apply_junction(*row, starting_values[record(j)], acc);
+            if (joins(i, j)) detail::apply_junction(*row, read(*row, record(j)), acc);
         } else {
           for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-            if (joins(i, j)) detail::apply_junction(junction(i, j, kernel), starting_values[record(j)], acc);
+            if (joins(i, j)) {
+              const Junction jn = junction(i, j, kernel);
+              detail::apply_junction(jn, read(jn, record(j)), acc);
+            }
         }
         current[i] = acc;
       }
@@ -525,10 +557,10 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     const int b = budget_of(ending_segment[i]);
     if (b <= 0) return;  // its emission, or nothing
-    const ConditionedValues<S>& v = depth == 1 || end_watch[i] == detail::no_watch ? current[i] : lagged.at(end_watch[i], b);
-    weighted[ending_segment[i]] = v.w[0] + v.w[1];
+    const Pair& w = depth == 1 || end_watch[i] == detail::no_watch ? current[i].w : lagged.at(end_watch[i], b).w;
+    weighted[ending_segment[i]] = w[0] + w[1];
   });
-  return ConditionedMemory{table.value_bytes(), lagged.bytes() + end_watch.capacity() * sizeof(std::uint32_t)};
+  return ConditionedMemory{table.value_bytes(), lagged.bytes() + (end_watch.capacity() + start_watch.capacity()) * sizeof(std::uint32_t)};
 }
 
 }  // namespace segpath
