@@ -274,6 +274,15 @@ SEGPATH_FORCE_INLINE ConditionedJunction<S> conditioned_coefficients(const Condi
   return j;
 }
 
+/// Whether conditioned_coefficients reads q_l(s | s') for this end and a start with flags fp:
+/// only where s' is a potential light technique, and then only if s' is a light technique
+/// sample (its term leaves D_l(s)) or D_l(s) has no term (Lambda and e(s) fall back on q_l).
+/// Elsewhere passing 0 gives the same junction, so the density need not be evaluated.
+template <Real T>
+[[nodiscard]] constexpr bool needs_light_pair(const ConditionedEnd<T>& end, std::uint8_t fp) noexcept {
+  return (fp & conditioned_potential) && ((fp & conditioned_light_technique) || end.terms == 0);
+}
+
 /// Adds a junction to s's values `acc`, reading `v`, the U (j.code & 1: s forces s') or else the
 /// W values of s' of the previous iteration. Linear in `v`: a factorised cluster passes sums over
 /// successors of one flag class.
@@ -425,7 +434,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
       f = in.link(s, sp);
     }
     T ql = T(0);
-    if (st.flags & conditioned_potential) {
+    if (detail::needs_light_pair(end[i], st.flags)) {
       if constexpr (std::is_invocable_v<const LightPair&, std::uint32_t, std::uint32_t, std::uint32_t, std::uint32_t>) {
         ql = T(in.light_pair(s, sp, i, j));
       } else {
