@@ -64,7 +64,7 @@
 // the suffix sums sum_{chains from s, e(s) = e} (prod of transfers and r of the segments after
 // s) L_e, without (U) and with (W) s's own free r. A successor s' is read as W_e(s'), or
 // U_e(s') / D_lt(s') where s forces it. k Jacobi iterations count chains of up to k + 1
-// segments. Cost per iteration: one link and one q_l evaluation per junction, or O(n + m) in a
+// segments. Cost per iteration: one link and at most one q_l evaluation per junction, or O(n + m) in a
 // factorised cluster (three classes of s'); memory two sets of four values per segment.
 #pragma once
 
@@ -276,11 +276,11 @@ SEGPATH_FORCE_INLINE ConditionedJunction<S> conditioned_coefficients(const Condi
 
 /// Whether conditioned_coefficients reads q_l(s | s') for this end and a start with flags fp:
 /// only where s' is a potential light technique, and then only if s' is a light technique
-/// sample (its term leaves D_l(s)) or D_l(s) has no term (Lambda and e(s) fall back on q_l).
-/// Elsewhere passing 0 gives the same junction, so the density need not be evaluated.
+/// sample (its term leaves D_l(s)) or D_l(s) has no positive value (Lambda and e(s) fall back
+/// on q_l). Elsewhere passing 0 gives the same junction, so the density need not be evaluated.
 template <Real T>
 [[nodiscard]] constexpr bool needs_light_pair(const ConditionedEnd<T>& end, std::uint8_t fp) noexcept {
-  return (fp & conditioned_potential) && ((fp & conditioned_light_technique) || end.terms == 0);
+  return (fp & conditioned_potential) && ((fp & conditioned_light_technique) || end.terms == 0 || !(end.light > T(0)));
 }
 
 /// Adds a junction to s's values `acc`, reading `v`, the U (j.code & 1: s forces s') or else the
@@ -375,7 +375,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   std::vector<detail::ConditionedEnd<T>> end(ending_slots);
   std::vector<detail::ConditionedEmission<S>> emission(ending_slots);
   std::vector<ConditionedValues<S>> current(ending_slots);
-  std::vector<Pair> starting_w(record.size()), starting_u(record.size());
+  const Pair zero{S(T(0)), S(T(0))};
+  std::vector<Pair> starting_w(record.size(), zero), starting_u(record.size(), zero);
   std::vector<detail::ConditionedStart<T>> start(record.size());
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     const std::uint32_t s = ending_segment[i];
