@@ -494,6 +494,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
       } else if (b == 0) {
         gather(emission_values(i));
       } else if (depth == 1 || start_watch[r] == detail::no_watch) {
+        // The common case, field by field: through `gather` the gather is slower (figures.md).
         starting_w[r] = current[i].w;
         if (forceable) starting_u[r] = current[i].u;
       } else {

@@ -138,8 +138,8 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
         ending_scale[transfer.ending_record.empty() ? i : transfer.ending_record[i]] = scale[support.ending_segments()[i]];
     });
     // q_l(s | s') of a general cluster's pair, by slot (propagate_conditioned calls it only
-    // where the junction depends on it, detail::needs_light_pair): light_pair_density from the copies, the same
-    // product, the same number.
+    // where the junction depends on it, detail::needs_light_pair): light_pair_density from
+    // the copies, the same product, the same number.
     struct SlotLightPair {
       decltype(light_pair) by_id;
       decltype(std::declval<const Scn&>().bsdf()) bsdf;
