@@ -191,10 +191,13 @@ TEMPLATE_TEST_CASE("EmbreeManifold: intersect returns the analytic hit on a cube
                    "[adapters][embree]", float, double) {
   using T = TestType;
   using M = EmbreeManifold<T>;
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
   typename M::Description desc;
   const Vec3<T> center(T(0.25), T(-0.5), T(1));
   const T half = T(0.5);
   desc.meshes.push_back(cube<T>(center, half));
+  desc.traversal = traversal;
   const M m(desc);
 
   const auto hit = m.intersect({Ray<T>{center + Vec3<T>(-2, T(0.1), T(0.2)), {1, 0, 0}}});
@@ -243,10 +246,13 @@ TEMPLATE_TEST_CASE(
     "[adapters][embree]", float, double) {
   using T = TestType;
   using M = EmbreeManifold<T>;
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
   typename M::Description desc;
   const Vec3<T> c(T(1), T(-2), T(0.5));
   const T r = T(1.5);
   desc.spheres.push_back({c, r, 5});
+  desc.traversal = traversal;
   const M m(desc);
 
   const auto from_center = m.intersect({Ray<T>{c, {0, 0, 1}}});
@@ -286,6 +292,8 @@ TEMPLATE_TEST_CASE("EmbreeManifold: interpolated shading normals and per-mesh ma
                    "[adapters][embree]", float, double) {
   using T = TestType;
   using M = EmbreeManifold<T>;
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
   typename M::Description desc;
   typename M::Mesh mesh;
   mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
@@ -293,6 +301,7 @@ TEMPLATE_TEST_CASE("EmbreeManifold: interpolated shading normals and per-mesh ma
   mesh.normals = {{0, 0, 2}, {1, 0, 1}, {0, 1, 1}};  // normalized by the manifold
   mesh.material_id = 77;
   desc.meshes.push_back(mesh);
+  desc.traversal = traversal;
   const M m(desc);
   const auto h = m.intersect({Ray<T>{{T(0.25), T(0.25), 1}, {0, 0, -1}}});
   REQUIRE(h);
@@ -314,8 +323,10 @@ namespace {
 /// origin by scale * (3, -2, 1): every ray leaving a surface point into the box must hit,
 /// every ray leaving the box outwards must escape.
 template <class T>
-typename EmbreeManifold<T>::Description box_with_sphere(T scale, bool with_box) {
+typename EmbreeManifold<T>::Description box_with_sphere(
+    T scale, bool with_box, typename EmbreeManifold<T>::Traversal traversal = EmbreeManifold<T>::Traversal::automatic) {
   typename EmbreeManifold<T>::Description desc;
+  desc.traversal = traversal;
   const Vec3<T> offset = scale * Vec3<T>(3, -2, 1);
   if (with_box) desc.meshes.push_back(cube<T>(offset, scale));
   desc.spheres.push_back({offset + scale * Vec3<T>(T(0.2), T(-0.1), T(0.15)), T(0.45) * scale, 6});
@@ -329,11 +340,13 @@ TEMPLATE_TEST_CASE(
     "[adapters][embree][stat]", float, double) {
   using T = TestType;
   using M = EmbreeManifold<T>;
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
   const std::uint64_t n = 100'000;
   for (const T scale : {T(1e-3), T(1), T(1e4)}) {
     for (const bool with_box : {true, false}) {
       CAPTURE(scale, with_box);
-      const M m(box_with_sphere<T>(scale, with_box));
+      const M m(box_with_sphere<T>(scale, with_box, traversal));
       const std::uint32_t sphere = m.triangle_count();
       const T r = T(0.45) * scale;
       Pcg32 rng(99, std::uint64_t(with_box));
@@ -403,6 +416,8 @@ TEMPLATE_TEST_CASE("EmbreeManifold: visible is symmetric and agrees with interse
                    "[adapters][embree][stat]", float, double) {
   using T = TestType;
   using M = EmbreeManifold<T>;
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
   for (const T scale : {T(1e-3), T(1), T(1e4)}) {
     CAPTURE(scale);
     auto desc = box_with_sphere<T>(scale, true);
@@ -413,6 +428,7 @@ TEMPLATE_TEST_CASE("EmbreeManifold: visible is symmetric and agrees with interse
                          offset + scale * Vec3<T>(T(-0.5), T(0.8), T(-0.6))};
     blocker.triangles = {{0, 1, 2}};
     desc.meshes.push_back(blocker);
+    desc.traversal = traversal;
     const M m(desc);
     Pcg32 rng(5, 17);
     int asymmetric = 0, disagreements = 0, ambiguous = 0, visible_count = 0;
@@ -450,7 +466,9 @@ TEMPLATE_TEST_CASE("EmbreeManifold: visible with point and direction endpoints",
                    "[adapters][embree]", float, double) {
   using T = TestType;
   using M = EmbreeManifold<T>;
-  const M m(box_with_sphere<T>(T(1), true));
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
+  const M m(box_with_sphere<T>(T(1), true, traversal));
   const Vec3<T> offset(3, -2, 1);
   const auto inside = SurfacePoint<T>::at_point(offset + Vec3<T>(T(-0.7), T(0.6), T(-0.7)));
   const auto outside = SurfacePoint<T>::at_point(offset + Vec3<T>(5, 0, 0));
@@ -486,11 +504,14 @@ TEMPLATE_TEST_CASE("EmbreeManifold: degenerate triangles are never hit and never
                    "[adapters][embree]", float, double) {
   using T = TestType;
   using M = EmbreeManifold<T>;
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
   typename M::Description desc;
   typename M::Mesh mesh;
   mesh.positions = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {0, 1, 0}};
   mesh.triangles = {{0, 1, 2}, {1, 1, 3}, {0, 1, 3}};  // collinear, repeated vertex, proper
   desc.meshes.push_back(mesh);
+  desc.traversal = traversal;
   const M m(desc);
   CHECK(m.area() == Approx(0.5));
   CHECK(m.primitive_area(0) == T(0));
@@ -515,6 +536,7 @@ TEMPLATE_TEST_CASE("EmbreeManifold: degenerate triangles are never hit and never
   typename M::Description flat;
   flat.meshes.push_back(mesh);
   flat.meshes[0].triangles.pop_back();
+  flat.traversal = traversal;
   const M none(flat);
   CHECK(none.area() == T(0));
   CHECK_FALSE(none.can_sample_area());
@@ -525,7 +547,11 @@ TEMPLATE_TEST_CASE("EmbreeManifold: an empty scene intersects nothing and refuse
                    "[adapters][embree]", float, double) {
   using T = TestType;
   using M = EmbreeManifold<T>;
-  const M m(typename M::Description{});
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
+  typename M::Description empty;
+  empty.traversal = traversal;
+  const M m(empty);
   CHECK(m.area() == T(0));
   CHECK(m.primitive_count() == 0);
   CHECK_FALSE(m.can_sample_area());
@@ -538,8 +564,11 @@ TEMPLATE_TEST_CASE("EmbreeManifold: invalid queries give no hit", "[adapters][em
                    double) {
   using T = TestType;
   using M = EmbreeManifold<T>;
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
   typename M::Description desc;
   desc.meshes.push_back(cube<T>({0, 0, 0}, T(0.5)));
+  desc.traversal = traversal;
   const M m(desc);
   const T nan = std::numeric_limits<T>::quiet_NaN();
   CHECK_FALSE(m.intersect({Ray<T>{{nan, 0, 0}, {0, 0, 1}}}));
@@ -554,15 +583,20 @@ TEMPLATE_TEST_CASE("EmbreeManifold: a moved manifold keeps working", "[adapters]
                    double) {
   using T = TestType;
   using M = EmbreeManifold<T>;
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
   typename M::Description desc;
   desc.meshes.push_back(cube<T>({0, 0, 0}, T(0.5)));
   desc.spheres.push_back({{0, 0, 0}, T(0.25), 3});
+  desc.traversal = traversal;
   M a(desc);
   M b(std::move(a));
   const auto h = b.intersect({Ray<T>{{0, 0, 0}, {1, 0, 0}}});
   REQUIRE(h);
   CHECK(h->distance == Approx(0.25));
-  M c(typename M::Description{});
+  typename M::Description empty;
+  empty.traversal = traversal;
+  M c(empty);
   c = std::move(b);
   const auto h2 = c.intersect({Ray<T>{{T(0.3), 0, 0}, {1, 0, 0}}});
   REQUIRE(h2);
@@ -632,6 +666,8 @@ TEST_CASE("EmbreeManifold<double>: a surface closer than Embree's float resoluti
   // there (~2.4e-7): rounded to float, Embree's ray may start behind the triangle, yet the
   // exact hit must be found.
   using M = EmbreeManifold<double>;
+  const auto traversal = GENERATE(M::Traversal::embree, M::Traversal::brute_force);
+  CAPTURE(int(traversal));
   const Vec3<double> n = glm::normalize(Vec3<double>(1, 0.37, 0.21));
   const Frame<double> frame = Frame<double>::from_normal(n);
   const Vec3<double> c0(2.1, -1.3, 0.7);
@@ -641,6 +677,7 @@ TEST_CASE("EmbreeManifold<double>: a surface closer than Embree's float resoluti
                     c0 + 10.0 * frame.bitangent};
   mesh.triangles = {{0, 1, 2}};
   desc.meshes.push_back(mesh);
+  desc.traversal = traversal;
   const M m(desc);
   Pcg32 rng(8, 8);
   int misses = 0;
@@ -658,4 +695,80 @@ TEST_CASE("EmbreeManifold<double>: a surface closer than Embree's float resoluti
                   : 1;
   }
   CHECK(misses == 0);
+}
+
+TEMPLATE_TEST_CASE("EmbreeManifold: the direct traversal finds what Embree's finds",
+                   "[adapters][embree]", float, double) {
+  // A closed box with a smooth-shaded fan and a free triangle inside, two spheres (one
+  // touching a wall's plane), traced both ways: every query must give the same primitive, the
+  // same distance and point (both are computed in double from the same plane or sphere) and
+  // the same shading normal up to the barycentrics' precision (Embree's are float).
+  using T = TestType;
+  using M = EmbreeManifold<T>;
+  typename M::Description desc = box_with_sphere<T>(T(1), true);
+  const Vec3<T> offset(3, -2, 1);
+  desc.spheres.push_back({offset + Vec3<T>(T(-0.6), T(0.6), T(-0.75)), T(0.25), 7});
+  typename M::Mesh fan;  // a smooth-shaded quad split in two, tilted
+  fan.positions = {offset + Vec3<T>(T(-0.9), T(-0.9), T(0.5)), offset + Vec3<T>(T(0.1), T(-0.9), T(0.7)),
+                   offset + Vec3<T>(T(0.1), T(0.1), T(0.6)), offset + Vec3<T>(T(-0.9), T(0.1), T(0.4))};
+  fan.triangles = {{0, 1, 2}, {0, 2, 3}};
+  fan.normals = {{0, T(0.2), 1}, {T(0.3), 0, 1}, {0, 0, 1}, {T(-0.2), T(-0.1), 1}};
+  desc.meshes.push_back(fan);
+  desc.traversal = M::Traversal::embree;
+  const M embree(desc);
+  desc.traversal = M::Traversal::brute_force;
+  const M direct(desc);
+  REQUIRE_FALSE(embree.brute_force());
+  REQUIRE(direct.brute_force());
+  // The automatic choice: direct tests up to brute_force_max_primitives, Embree above.
+  desc.traversal = M::Traversal::automatic;
+  CHECK(M(desc).brute_force() == (embree.primitive_count() <= M::brute_force_max_primitives));
+  typename M::Description big;
+  for (std::uint32_t k = 0; k <= M::brute_force_max_primitives; ++k) big.spheres.push_back({Vec3<T>(T(3 * k), 0, 0), T(1), 0});
+  CHECK_FALSE(M(big).brute_force());
+  big.spheres.pop_back();
+  CHECK(M(big).brute_force());
+
+  Pcg32 rng(21, 4);
+  int different = 0, hits = 0, hidden = 0, shading = 0;
+  const int n = 20'000;
+  for (int i = 0; i < n; ++i) {
+    const auto a = embree.sample_area({rng.uniform2<T>()});
+    const auto b = embree.sample_area({rng.uniform2<T>()});
+    REQUIRE(a);
+    REQUIRE(b);
+    const T side = i % 2 ? T(1) : T(-1);
+    // From a surface point (either side), and from a point in the box's interior.
+    const Vec3<T> inner = offset + T(0.95) * (T(2) * Vec3<T>(rng.uniform<T>(), rng.uniform<T>(), rng.uniform<T>()) - T(1));
+    for (const Vec3<T>& o : {a->point.position, inner}) {
+      const Vec3<T> d = o == inner ? square_to_uniform_sphere(rng.uniform2<T>()) : cosine_direction<T>(side * a->point.normal, rng);
+      const T t_max = i % 3 ? std::numeric_limits<T>::infinity() : T(0.5);
+      const auto h1 = embree.intersect({Ray<T>{o, d}, t_max});
+      const auto h2 = direct.intersect({Ray<T>{o, d}, t_max});
+      if (bool(h1) != bool(h2)) {
+        ++different;
+        continue;
+      }
+      if (!h1) continue;
+      ++hits;
+      if (h1->point.primitive_id != h2->point.primitive_id || !close(h1->distance, h2->distance, T(1e-12)) ||
+          !(h1->point.position == h2->point.position) || !(h1->point.normal == h2->point.normal) ||
+          h1->point.material_id != h2->point.material_id)
+        ++different;
+      shading += close(h1->point.shading_normal, h2->point.shading_normal, T(1e-5)) ? 0 : 1;
+    }
+    const bool v1 = embree.visible({a->point, b->point});
+    different += v1 != direct.visible({a->point, b->point}) ? 1 : 0;
+    hidden += v1 ? 0 : 1;
+    const auto sky = SurfacePoint<T>{square_to_uniform_sphere(rng.uniform2<T>()), {0, 0, 1}, {0, 0, 1}, invalid_id, invalid_id,
+                                     PointKind::direction};
+    const auto free_point = SurfacePoint<T>::at_point(inner + T(3) * square_to_uniform_sphere(rng.uniform2<T>()));
+    different += embree.visible({free_point, sky}) != direct.visible({free_point, sky}) ? 1 : 0;
+    different += embree.visible({a->point, free_point}) != direct.visible({a->point, free_point}) ? 1 : 0;
+  }
+  CHECK(different == 0);
+  CHECK(shading == 0);
+  CHECK(hits > n);                           // most rays hit something
+  CHECK(hidden > n / 20);                    // the spheres and the fan hide pairs
+  CHECK(hidden < n - n / 4);
 }

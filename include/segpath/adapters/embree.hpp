@@ -4,6 +4,7 @@
 
 #include "segpath/concepts/manifold.hpp"
 #include "segpath/core/warp.hpp"
+#include "segpath/adapters/embree/brute_force.hpp"
 #include "segpath/adapters/embree/exact_callbacks.hpp"
 
 #include <embree3/rtcore.h>
@@ -61,6 +62,13 @@ namespace segpath {
 /// and visible, but area() is 0 and sample_area() always returns nullopt; check
 /// can_sample_area() before handing it to an estimator that samples by area.
 ///
+/// Traversal: a scene of at most brute_force_max_primitives primitives is traced, by default,
+/// without Embree's traversal: every primitive is tested directly with the same exact tests
+/// (adapters/embree/brute_force.hpp), which is faster at that size. Hits then differ from
+/// Embree's only where a ray meets two surfaces at the same distance, or passes within
+/// ~1e-12 (barycentric) of an edge that Embree's float test decides either way. The Embree
+/// scene is built either way (rtc_scene()).
+///
 /// Thread safety: all queries are const and may run concurrently. Not copyable; movable (a
 /// moved-from manifold may only be destroyed or assigned to).
 template <Real T>
@@ -84,9 +92,19 @@ class EmbreeManifold {
     T radius = 1;
     std::uint32_t material_id = 0;
   };
+  /// How queries find their candidates (see the class comment).
+  enum class Traversal : std::uint8_t {
+    automatic,    ///< brute_force up to brute_force_max_primitives primitives, else embree
+    embree,       ///< Embree's BVH proposes candidates, the exact callbacks accept them
+    brute_force,  ///< every primitive is tested exactly
+  };
+  /// The largest scene that Traversal::automatic traces by direct tests.
+  static constexpr std::uint32_t brute_force_max_primitives = 32;
+
   struct Description {
     std::vector<Mesh> meshes;
     std::vector<Sphere> spheres;
+    Traversal traversal = Traversal::automatic;
   };
 
   /// Builds the Embree scene. `device_config` is passed to rtcNewDevice (e.g. "threads=1").
@@ -100,6 +118,10 @@ class EmbreeManifold {
         data_(std::make_unique<detail::EmbreeSceneData<T>>()) {
     load(description);
     build(device_config);
+    const bool direct = description.traversal == Traversal::brute_force ||
+                        (description.traversal == Traversal::automatic && primitive_count() <= brute_force_max_primitives);
+    if (direct) direct_triangles_ = detail::brute_force_triangles(*data_);
+    brute_force_ = direct;
   }
 
   EmbreeManifold(const EmbreeManifold&) = delete;
@@ -122,6 +144,9 @@ class EmbreeManifold {
     if (id >= data_->cdf.size()) return T(0);
     return T(data_->cdf[id] - (id == 0 ? 0.0 : data_->cdf[id - 1]));
   }
+  /// Whether queries test every primitive directly (Traversal::brute_force, or automatic on a
+  /// small scene) rather than through Embree's traversal.
+  [[nodiscard]] bool brute_force() const noexcept { return brute_force_; }
   /// Whether sample_area can draw points: the total area is positive.
   [[nodiscard]] bool can_sample_area() const noexcept { return data_->total_area > 0; }
   /// The Embree scene, for renderers that trace their own rays too.
@@ -184,6 +209,7 @@ class EmbreeManifold {
     if (!(length > 0)) return std::nullopt;
     const Vec3<double> d = detail::to_double(q.ray.direction) / length;
     detail::EmbreeQueryContext ctx = context(o, d, double(q.t_max), nullptr);
+    if (brute_force_) return direct_hit(ctx, q.t_max);
     RTCRayHit rayhit;
     set_ray(rayhit.ray, ctx);
     rayhit.hit.geomID = RTC_INVALID_GEOMETRY_ID;
@@ -192,37 +218,14 @@ class EmbreeManifold {
     if (rayhit.hit.geomID == RTC_INVALID_GEOMETRY_ID) return std::nullopt;
 
     const auto& data = *data_;
-    Hit<T> hit;
-    double t = 0;
     if (rayhit.hit.geomID == data.triangle_geometry) {
-      const std::uint32_t id = rayhit.hit.primID;
-      const auto& tri = data.triangles[id];
-      const auto& plane = data.planes[id];
-      t = (plane.offset - glm::dot(plane.normal, o)) /
-          glm::dot(plane.normal, d);  // finite: accepted
-      hit.point.position = Vec3<T>(on_plane(id, o + t * d));
-      hit.point.normal = Vec3<T>(plane.normal);
-      hit.point.shading_normal =
-          shading_normal(tri, hit.point.normal, T(rayhit.hit.u), T(rayhit.hit.v));
-      hit.point.primitive_id = id;
-      hit.point.material_id = tri.material_id;
-    } else {
-      const std::uint32_t k = rayhit.hit.primID;
-      const auto& s = data.spheres[k];
-      const auto exact = detail::embree_sphere_distance(data, k, ctx);
-      if (!exact) return std::nullopt;
-      t = *exact;
-      const Vec3<double> n = glm::normalize(o + t * d - s.center);
-      hit.point.position = Vec3<T>(s.center + s.radius * n);
-      hit.point.normal = hit.point.shading_normal = Vec3<T>(n);
-      hit.point.primitive_id = triangle_count() + k;
-      hit.point.material_id = s.material_id;
+      const auto& plane = data.planes[rayhit.hit.primID];
+      const double t = (plane.offset - glm::dot(plane.normal, o)) / glm::dot(plane.normal, d);  // finite: accepted
+      return hit_at(false, rayhit.hit.primID, t, T(rayhit.hit.u), T(rayhit.hit.v), o, d, q.t_max);
     }
-    hit.point.kind = PointKind::surface;
-    hit.distance = T(t);
-    if (!(hit.distance > T(0) && hit.distance < q.t_max) || !is_finite(hit.point.position))
-      return std::nullopt;
-    return hit;
+    const auto exact = detail::embree_sphere_distance(data, rayhit.hit.primID, ctx);
+    if (!exact) return std::nullopt;
+    return hit_at(true, rayhit.hit.primID, *exact, T(0), T(0), o, d, q.t_max);
   }
 
   /// V(from, to) (Manifold requirement 9): whether the open segment between the endpoints
@@ -299,10 +302,45 @@ class EmbreeManifold {
   }
 
   [[nodiscard]] bool occluded(detail::EmbreeQueryContext ctx) const noexcept {
+    if (brute_force_) return detail::brute_force_occluded(*data_, direct_triangles_, ctx);
     RTCRay ray;
     set_ray(ray, ctx);
     rtcOccluded1(scene_.get(), &ctx.base, &ray);
     return ray.tfar < 0;
+  }
+
+  /// The closest hit by direct tests.
+  [[nodiscard]] std::optional<Hit<T>> direct_hit(const detail::EmbreeQueryContext& ctx, T t_max) const noexcept {
+    const auto found = detail::brute_force_intersect(*data_, direct_triangles_, ctx);
+    if (!found) return std::nullopt;
+    return hit_at(found->sphere, found->index, found->t, T(found->b1), T(found->b2), ctx.origin, ctx.direction, t_max);
+  }
+
+  /// The hit at exact distance t along o + t d on triangle `index` (barycentrics b1, b2) or on
+  /// sphere `index`: its point on the true surface; nullopt unless t is in (0, t_max) in T.
+  [[nodiscard]] std::optional<Hit<T>> hit_at(bool sphere, std::uint32_t index, double t, T b1, T b2, const Vec3<double>& o,
+                                             const Vec3<double>& d, T t_max) const noexcept {
+    const auto& data = *data_;
+    Hit<T> hit;
+    if (!sphere) {
+      const auto& tri = data.triangles[index];
+      hit.point.position = Vec3<T>(on_plane(index, o + t * d));
+      hit.point.normal = Vec3<T>(data.planes[index].normal);
+      hit.point.shading_normal = shading_normal(tri, hit.point.normal, b1, b2);
+      hit.point.primitive_id = index;
+      hit.point.material_id = tri.material_id;
+    } else {
+      const auto& s = data.spheres[index];
+      const Vec3<double> n = glm::normalize(o + t * d - s.center);
+      hit.point.position = Vec3<T>(s.center + s.radius * n);
+      hit.point.normal = hit.point.shading_normal = Vec3<T>(n);
+      hit.point.primitive_id = triangle_count() + index;
+      hit.point.material_id = s.material_id;
+    }
+    hit.point.kind = PointKind::surface;
+    hit.distance = T(t);
+    if (!(hit.distance > T(0) && hit.distance < t_max) || !is_finite(hit.point.position)) return std::nullopt;
+    return hit;
   }
 
   /// p moved onto the plane of triangle `id` (in double), so that it lies within the
@@ -510,6 +548,9 @@ class EmbreeManifold {
   std::unique_ptr<detail::EmbreeSceneData<T>> data_;
   std::unique_ptr<RTCDeviceTy, detail::EmbreeDeviceDeleter> device_;
   std::unique_ptr<RTCSceneTy, detail::EmbreeSceneDeleter> scene_;
+  /// The non-degenerate triangles' direct-test data where brute_force_, else empty.
+  detail::BruteForceTriangles direct_triangles_;
+  bool brute_force_ = false;
 };
 
 }  // namespace segpath

@@ -1,0 +1,171 @@
+// EmbreeManifold's traversal for scenes of a few dozen primitives: every primitive is tested
+// directly, in double, with the same exact tests the callbacks apply to Embree's candidates
+// (exact_callbacks.hpp). Below a few dozen primitives this is faster than Embree's traversal,
+// whose per-ray set-up and indirect callbacks a tiny BVH does not repay (docs/figures.md).
+#pragma once
+
+#include "segpath/adapters/embree/exact_callbacks.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <utility>
+#include <vector>
+
+namespace segpath::detail {
+
+/// The non-degenerate triangles of a scene as the direct tests read them: structure of arrays
+/// (padded to a multiple of `lanes` with triangles that never hit), so that the compiler can test
+/// several triangles per instruction without a branch. Per triangle: its plane, the on-surface
+/// band of its own coordinates (2^-48 of their magnitude, embree_on_surface_tolerance), its first
+/// vertex and the dual basis of its edges in its plane, so that the barycentrics of a point p on
+/// the plane are b1 = dot(p - v0, dual1) and b2 = dot(p - v0, dual2).
+struct BruteForceTriangles {
+  static constexpr std::size_t lanes = 4;
+  std::vector<double> nx, ny, nz, offset, band, v0x, v0y, v0z, d1x, d1y, d1z, d2x, d2y, d2z;
+  std::vector<std::uint32_t> id;
+
+  [[nodiscard]] std::size_t size() const noexcept { return id.size(); }
+  [[nodiscard]] bool empty() const noexcept { return id.empty(); }
+
+  void push_back(const Vec3<double>& n, double plane_offset, double plane_band, const Vec3<double>& v0,
+                 const Vec3<double>& dual1, const Vec3<double>& dual2, std::uint32_t triangle) {
+    nx.push_back(n.x), ny.push_back(n.y), nz.push_back(n.z), offset.push_back(plane_offset), band.push_back(plane_band);
+    v0x.push_back(v0.x), v0y.push_back(v0.y), v0z.push_back(v0.z);
+    d1x.push_back(dual1.x), d1y.push_back(dual1.y), d1z.push_back(dual1.z);
+    d2x.push_back(dual2.x), d2y.push_back(dual2.y), d2z.push_back(dual2.z);
+    id.push_back(triangle);
+  }
+};
+
+/// The direct-test data of the non-degenerate triangles of `data`, in primitive-id order, padded
+/// with triangles whose barycentric basis is zero and whose band is infinite (never a hit).
+template <Real T>
+[[nodiscard]] BruteForceTriangles brute_force_triangles(const EmbreeSceneData<T>& data) {
+  BruteForceTriangles out;
+  for (std::uint32_t id = 0; id < data.triangles.size(); ++id) {
+    const EmbreeTrianglePlane& plane = data.planes[id];
+    if (plane.normal == Vec3<double>(0, 0, 0)) continue;
+    const auto& v = data.triangles[id].vertex;
+    const Vec3<double> v0 = to_double(data.vertices[v[0]]);
+    const Vec3<double> e1 = to_double(data.vertices[v[1]]) - v0, e2 = to_double(data.vertices[v[2]]) - v0;
+    // dual1 is orthogonal to e2 and n with dot(e1, dual1) = 1; dual2 likewise.
+    const Vec3<double> c1 = glm::cross(e2, plane.normal), c2 = glm::cross(plane.normal, e1);
+    out.push_back(plane.normal, plane.offset, 0x1p-48 * plane.scale, v0, c1 / glm::dot(e1, c1), c2 / glm::dot(e2, c2), id);
+  }
+  const Vec3<double> zero(0, 0, 0), up(0, 0, 1);
+  while (out.size() % BruteForceTriangles::lanes != 0)
+    out.push_back(up, 0, std::numeric_limits<double>::infinity(), zero, zero, zero, invalid_id);
+  return out;
+}
+
+/// How far outside its edges (in barycentric units) a triangle still counts as hit: far above
+/// the rounding of the barycentrics in double (~1e-15), so that a ray through the shared edge
+/// of two triangles never slips between them, and far below float's resolution of the
+/// vertices.
+inline constexpr double brute_force_edge_slack = 0x1p-40;
+
+/// A closest hit found by direct tests: a triangle (with its barycentrics) or a sphere.
+struct BruteForceHit {
+  double t = 0;
+  std::uint32_t index = 0;  ///< triangle id, or sphere index
+  bool sphere = false;
+  double b1 = 0, b2 = 0;
+};
+
+/// The exact distance in (0, t_limit) at which the query meets triangle k of `tris`, or
+/// infinity: embree_accept_triangle's tests (not a surface the origin, or with
+/// skip_far_surface the far endpoint, lies on) and the triangle's own extent. Branch-free.
+[[nodiscard]] SEGPATH_FORCE_INLINE double brute_force_triangle_distance(const BruteForceTriangles& tris, std::size_t k,
+                                                                        const EmbreeQueryContext& q, double origin_band,
+                                                                        double far_band, double t_limit) noexcept {
+  const double s = tris.nx[k] * q.origin.x + tris.ny[k] * q.origin.y + tris.nz[k] * q.origin.z - tris.offset[k];
+  const double cosine = tris.nx[k] * q.direction.x + tris.ny[k] * q.direction.y + tris.nz[k] * q.direction.z;
+  const double far = tris.nx[k] * q.far_point.x + tris.ny[k] * q.far_point.y + tris.nz[k] * q.far_point.z - tris.offset[k];
+  const double t = -s / cosine;
+  const double px = q.origin.x + t * q.direction.x - tris.v0x[k];
+  const double py = q.origin.y + t * q.direction.y - tris.v0y[k];
+  const double pz = q.origin.z + t * q.direction.z - tris.v0z[k];
+  const double b1 = px * tris.d1x[k] + py * tris.d1y[k] + pz * tris.d1z[k];
+  const double b2 = px * tris.d2x[k] + py * tris.d2y[k] + pz * tris.d2z[k];
+  const bool hit = (std::abs(s) > origin_band + tris.band[k]) & (std::abs(far) > far_band + tris.band[k]) & (t > 0) &
+                   (t < t_limit) & (b1 >= -brute_force_edge_slack) & (b2 >= -brute_force_edge_slack) &
+                   (b1 + b2 <= 1 + brute_force_edge_slack);
+  return hit ? t : std::numeric_limits<double>::infinity();
+}
+
+/// The barycentrics of the query's point at distance t on triangle k.
+[[nodiscard]] inline std::pair<double, double> brute_force_barycentrics(const BruteForceTriangles& tris, std::size_t k,
+                                                                        const EmbreeQueryContext& q, double t) noexcept {
+  const Vec3<double> p = q.origin + t * q.direction - Vec3<double>(tris.v0x[k], tris.v0y[k], tris.v0z[k]);
+  return {glm::dot(p, Vec3<double>(tris.d1x[k], tris.d1y[k], tris.d1z[k])), glm::dot(p, Vec3<double>(tris.d2x[k], tris.d2y[k], tris.d2z[k]))};
+}
+
+/// Triangles are tested in chunks of this many: a chunk's distances are computed by one loop
+/// without a branch or a carried dependency (which the compiler vectorises), then compared.
+inline constexpr std::size_t brute_force_chunk = 32;
+
+/// The distances of triangles [first, first + count) (count <= brute_force_chunk) into `out`.
+inline void brute_force_chunk_distances(const BruteForceTriangles& tris, std::size_t first, std::size_t count,
+                                        const EmbreeQueryContext& q, double origin_band, double far_band,
+                                        double* out) noexcept {
+  for (std::size_t l = 0; l < count; ++l)
+    out[l] = brute_force_triangle_distance(tris, first + l, q, origin_band, far_band, q.t_max);
+}
+
+/// The closest hit of the query among all primitives, by direct tests.
+template <Real T>
+[[nodiscard]] std::optional<BruteForceHit> brute_force_intersect(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,
+                                                                 const EmbreeQueryContext& q) noexcept {
+  const double origin_band = embree_on_surface_tolerance<T>(q.origin, 0.0);
+  constexpr double no_far = -std::numeric_limits<double>::infinity();  // rejects nothing
+  double best = q.t_max;
+  std::size_t best_k = tris.size();
+  double t[brute_force_chunk];
+  for (std::size_t first = 0; first < tris.size(); first += brute_force_chunk) {
+    const std::size_t count = std::min(brute_force_chunk, tris.size() - first);
+    brute_force_chunk_distances(tris, first, count, q, origin_band, no_far, t);
+    for (std::size_t l = 0; l < count; ++l) {
+      best_k = t[l] < best ? first + l : best_k;
+      best = t[l] < best ? t[l] : best;
+    }
+  }
+  std::optional<BruteForceHit> hit;
+  if (best_k < tris.size()) {
+    const auto [b1, b2] = brute_force_barycentrics(tris, best_k, q, best);
+    hit = BruteForceHit{best, tris.id[best_k], false, b1, b2};
+  }
+  for (std::uint32_t k = 0; k < data.spheres.size(); ++k) {
+    const std::optional<double> ts = embree_sphere_distance(data, k, q);
+    if (ts && *ts < best) {
+      best = *ts;
+      hit = BruteForceHit{*ts, k, true, 0, 0};
+    }
+  }
+  return hit;
+}
+
+/// Whether any primitive blocks the query (its open segment, or its ray when t_max is infinite).
+template <Real T>
+[[nodiscard]] bool brute_force_occluded(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,
+                                        const EmbreeQueryContext& q) noexcept {
+  const double origin_band = embree_on_surface_tolerance<T>(q.origin, 0.0);
+  const double far_band = q.skip_far_surface ? embree_on_surface_tolerance<T>(q.far_point, 0.0)
+                                             : -std::numeric_limits<double>::infinity();
+  double t[brute_force_chunk];
+  for (std::size_t first = 0; first < tris.size(); first += brute_force_chunk) {
+    const std::size_t count = std::min(brute_force_chunk, tris.size() - first);
+    brute_force_chunk_distances(tris, first, count, q, origin_band, far_band, t);
+    bool blocked = false;
+    for (std::size_t l = 0; l < count; ++l) blocked |= t[l] < q.t_max;
+    if (blocked) return true;
+  }
+  for (std::uint32_t k = 0; k < data.spheres.size(); ++k)
+    if (embree_sphere_distance(data, k, q)) return true;
+  return false;
+}
+
+}  // namespace segpath::detail
