@@ -283,8 +283,15 @@ template <Real T>
   return (fp & conditioned_potential) && ((fp & conditioned_light_technique) || end.terms == 0 || !(end.light > T(0)));
 }
 
-/// Adds a junction to s's values `acc`, reading `v`, the U (j.code & 1: s forces s') or else the
-/// W values of s' of the previous iteration. Linear in `v`: a factorised cluster passes sums over
+/// The values of s' that junction j reads: U where s forces s' (j.code & 1), else W.
+template <Spectrum S, class Pair>
+[[nodiscard]] SEGPATH_FORCE_INLINE const Pair& read_successor(const ConditionedJunction<S>& j, const Pair& u,
+                                                              const Pair& w) noexcept {
+  return (j.code & 1) ? u : w;
+}
+
+/// Adds a junction to s's values `acc`, reading `v`, the values of s' of the previous iteration
+/// that read_successor selects. Linear in `v`: a factorised cluster passes sums over
 /// successors of one flag class.
 template <Spectrum S>
 SEGPATH_FORCE_INLINE void apply_junction(const ConditionedJunction<S>& j, const std::array<S, 2>& v,
@@ -316,7 +323,7 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
                                                spectrum_scalar_t<S> forced_weight, const S& transfer, spectrum_scalar_t<S> ql,
                                                const ConditionedValues<S>& next, ConditionedValues<S>& acc) noexcept {
   const ConditionedJunction<S> j = conditioned_coefficients(end, fp, forced_weight, transfer, ql);
-  apply_junction(j, (j.code & 1) ? next.u : next.w, acc);
+  apply_junction(j, read_successor(j, next.u, next.w), acc);
 }
 
 }  // namespace detail
@@ -445,7 +452,9 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     return detail::conditioned_coefficients(end[i], st.flags, st.forced_weight, S(f * (kernel * st.geometry)), ql);
   };
   // What junction j reads of starting slot j's record r.
-  auto read = [&](const Junction& j, std::uint32_t r) -> const Pair& { return (j.code & 1) ? starting_u[r] : starting_w[r]; };
+  auto read = [&](const Junction& j, std::uint32_t r) -> const Pair& {
+    return detail::read_successor(j, starting_u[r], starting_w[r]);
+  };
   // s -> s' is a junction: s' carries weight and is not s.
   auto joins = [&](std::uint32_t i, std::uint32_t j) {
     const detail::ConditionedStart<T>& st = start[record(j)];
@@ -526,7 +535,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
             const detail::ClassJunctions<S>& junctions = class_junction[class_offset[g] + (i - ending.begin)];
             for (int k_class = 0; k_class < 3; ++k_class) {
               const Junction j = junctions[k_class];
-              detail::apply_junction(j, (j.code & 1) ? sum[k_class].u : sum[k_class].w, acc);
+              detail::apply_junction(j, detail::read_successor(j, sum[k_class].u, sum[k_class].w), acc);
             }
             return acc;
           };
