@@ -699,8 +699,8 @@ TEST_CASE("EmbreeManifold<double>: a surface closer than Embree's float resoluti
 
 TEMPLATE_TEST_CASE("EmbreeManifold: the direct traversal finds what Embree's finds",
                    "[adapters][embree]", float, double) {
-  // A closed box with a smooth-shaded fan and a free triangle inside, two spheres (one
-  // touching a wall's plane), traced both ways: every query must give the same primitive, the
+  // A closed box with a smooth-shaded fan and a quad inside, two spheres (one touching the
+  // floor's plane), traced both ways: every query must give the same primitive, the
   // same distance and point (both are computed in double from the same plane or sphere) and
   // the same shading normal up to the barycentrics' precision (Embree's are float).
   using T = TestType;
@@ -714,6 +714,11 @@ TEMPLATE_TEST_CASE("EmbreeManifold: the direct traversal finds what Embree's fin
   fan.triangles = {{0, 1, 2}, {0, 2, 3}};
   fan.normals = {{0, T(0.2), 1}, {T(0.3), 0, 1}, {0, 0, 1}, {T(-0.2), T(-0.1), 1}};
   desc.meshes.push_back(fan);
+  typename M::Mesh shelf;  // an axis-aligned quad whose halves start at different corners
+  shelf.positions = {offset + Vec3<T>(T(-0.5), T(-0.5), T(0.3)), offset + Vec3<T>(T(0.5), T(-0.5), T(0.3)),
+                     offset + Vec3<T>(T(0.5), T(0.5), T(0.3)), offset + Vec3<T>(T(-0.5), T(0.5), T(0.3))};
+  shelf.triangles = {{0, 1, 2}, {2, 3, 0}};
+  desc.meshes.push_back(shelf);
   desc.traversal = M::Traversal::embree;
   const M embree(desc);
   desc.traversal = M::Traversal::brute_force;
