@@ -697,12 +697,75 @@ TEST_CASE("EmbreeManifold<double>: a surface closer than Embree's float resoluti
   CHECK(misses == 0);
 }
 
+namespace {
+
+/// Queries of both traversals on one description: closest hits from surface points (either
+/// side) and from interior points, and visibility between surface points, free points and
+/// directions. Counts the queries whose answers differ.
+template <class T>
+struct TraversalComparison {
+  int different = 0, hits = 0, hidden = 0, shading = 0;
+};
+
+template <class T>
+TraversalComparison<T> compare_traversals(typename EmbreeManifold<T>::Description desc, const Vec3<T>& center, int n,
+                                          std::uint64_t seed) {
+  using M = EmbreeManifold<T>;
+  desc.traversal = M::Traversal::embree;
+  const M embree(desc);
+  desc.traversal = M::Traversal::brute_force;
+  const M direct(desc);
+  REQUIRE_FALSE(embree.brute_force());
+  REQUIRE(direct.brute_force());
+  Pcg32 rng(seed, 4);
+  TraversalComparison<T> c;
+  for (int i = 0; i < n; ++i) {
+    const auto a = embree.sample_area({rng.uniform2<T>()});
+    const auto b = embree.sample_area({rng.uniform2<T>()});
+    REQUIRE(a);
+    REQUIRE(b);
+    const T side = i % 2 ? T(1) : T(-1);
+    const Vec3<T> inner = center + T(0.95) * (T(2) * Vec3<T>(rng.uniform<T>(), rng.uniform<T>(), rng.uniform<T>()) - T(1));
+    for (const Vec3<T>& o : {a->point.position, inner}) {
+      const Vec3<T> d = o == inner ? square_to_uniform_sphere(rng.uniform2<T>()) : cosine_direction<T>(side * a->point.normal, rng);
+      const T t_max = i % 3 ? std::numeric_limits<T>::infinity() : T(0.5);
+      const auto h1 = embree.intersect({Ray<T>{o, d}, t_max});
+      const auto h2 = direct.intersect({Ray<T>{o, d}, t_max});
+      if (bool(h1) != bool(h2)) {
+        ++c.different;
+        continue;
+      }
+      if (!h1) continue;
+      ++c.hits;
+      // Both compute t and the point in double from the same plane or sphere; a few ulps allow
+      // for a compiler that contracts multiply-adds differently in the two loops.
+      if (h1->point.primitive_id != h2->point.primitive_id || !close(h1->distance, h2->distance, T(1e-5)) ||
+          !close(h1->point.position, h2->point.position, T(1e-5)) || !close(h1->point.normal, h2->point.normal, T(1e-5)) ||
+          h1->point.material_id != h2->point.material_id)
+        ++c.different;
+      c.shading += close(h1->point.shading_normal, h2->point.shading_normal, T(1e-5)) ? 0 : 1;
+    }
+    const bool v1 = embree.visible({a->point, b->point});
+    c.different += v1 != direct.visible({a->point, b->point}) ? 1 : 0;
+    c.hidden += v1 ? 0 : 1;
+    const auto sky = SurfacePoint<T>{square_to_uniform_sphere(rng.uniform2<T>()), {0, 0, 1}, {0, 0, 1}, invalid_id, invalid_id,
+                                     PointKind::direction};
+    const auto free_point = SurfacePoint<T>::at_point(inner + T(3) * square_to_uniform_sphere(rng.uniform2<T>()));
+    c.different += embree.visible({free_point, sky}) != direct.visible({free_point, sky}) ? 1 : 0;
+    c.different += embree.visible({a->point, free_point}) != direct.visible({a->point, free_point}) ? 1 : 0;
+  }
+  return c;
+}
+
+}  // namespace
+
 TEMPLATE_TEST_CASE("EmbreeManifold: the direct traversal finds what Embree's finds",
                    "[adapters][embree]", float, double) {
   // A closed box with a smooth-shaded fan and a quad inside, two spheres (one touching the
-  // floor's plane), traced both ways: every query must give the same primitive, the
-  // same distance and point (both are computed in double from the same plane or sphere) and
-  // the same shading normal up to the barycentrics' precision (Embree's are float).
+  // floor's plane), traced both ways: every query must give the same primitive, distance and
+  // point (both are computed in double from the same plane or sphere) and the same shading
+  // normal up to the barycentrics' precision (Embree's are float). Then the same box with a
+  // bumpy floor of 72 triangles: several chunks of the direct loop.
   using T = TestType;
   using M = EmbreeManifold<T>;
   typename M::Description desc = box_with_sphere<T>(T(1), true);
@@ -719,61 +782,39 @@ TEMPLATE_TEST_CASE("EmbreeManifold: the direct traversal finds what Embree's fin
                      offset + Vec3<T>(T(0.5), T(0.5), T(0.3)), offset + Vec3<T>(T(-0.5), T(0.5), T(0.3))};
   shelf.triangles = {{0, 1, 2}, {2, 3, 0}};
   desc.meshes.push_back(shelf);
-  desc.traversal = M::Traversal::embree;
-  const M embree(desc);
-  desc.traversal = M::Traversal::brute_force;
-  const M direct(desc);
-  REQUIRE_FALSE(embree.brute_force());
-  REQUIRE(direct.brute_force());
+
   // The automatic choice: direct tests up to brute_force_max_primitives, Embree above.
-  desc.traversal = M::Traversal::automatic;
-  CHECK(M(desc).brute_force() == (embree.primitive_count() <= M::brute_force_max_primitives));
+  CHECK(M(desc).brute_force() == (M(desc).primitive_count() <= M::brute_force_max_primitives));
   typename M::Description big;
   for (std::uint32_t k = 0; k <= M::brute_force_max_primitives; ++k) big.spheres.push_back({Vec3<T>(T(3 * k), 0, 0), T(1), 0});
   CHECK_FALSE(M(big).brute_force());
   big.spheres.pop_back();
   CHECK(M(big).brute_force());
 
-  Pcg32 rng(21, 4);
-  int different = 0, hits = 0, hidden = 0, shading = 0;
   const int n = 20'000;
-  for (int i = 0; i < n; ++i) {
-    const auto a = embree.sample_area({rng.uniform2<T>()});
-    const auto b = embree.sample_area({rng.uniform2<T>()});
-    REQUIRE(a);
-    REQUIRE(b);
-    const T side = i % 2 ? T(1) : T(-1);
-    // From a surface point (either side), and from a point in the box's interior.
-    const Vec3<T> inner = offset + T(0.95) * (T(2) * Vec3<T>(rng.uniform<T>(), rng.uniform<T>(), rng.uniform<T>()) - T(1));
-    for (const Vec3<T>& o : {a->point.position, inner}) {
-      const Vec3<T> d = o == inner ? square_to_uniform_sphere(rng.uniform2<T>()) : cosine_direction<T>(side * a->point.normal, rng);
-      const T t_max = i % 3 ? std::numeric_limits<T>::infinity() : T(0.5);
-      const auto h1 = embree.intersect({Ray<T>{o, d}, t_max});
-      const auto h2 = direct.intersect({Ray<T>{o, d}, t_max});
-      if (bool(h1) != bool(h2)) {
-        ++different;
-        continue;
-      }
-      if (!h1) continue;
-      ++hits;
-      if (h1->point.primitive_id != h2->point.primitive_id || !close(h1->distance, h2->distance, T(1e-12)) ||
-          !(h1->point.position == h2->point.position) || !(h1->point.normal == h2->point.normal) ||
-          h1->point.material_id != h2->point.material_id)
-        ++different;
-      shading += close(h1->point.shading_normal, h2->point.shading_normal, T(1e-5)) ? 0 : 1;
+  const auto small = compare_traversals<T>(desc, offset, n, 21);
+  CHECK(small.different == 0);
+  CHECK(small.shading == 0);
+  CHECK(small.hits > n);            // most rays hit something
+  CHECK(small.hidden > n / 20);     // the spheres and the fan hide pairs
+  CHECK(small.hidden < n - n / 4);
+
+  typename M::Mesh bumps;  // 6 x 6 cells of two triangles each, heights varying
+  for (int v = 0; v <= 6; ++v)
+    for (int u = 0; u <= 6; ++u)
+      bumps.positions.push_back(offset + Vec3<T>(T(-0.9) + T(0.3) * T(u), T(-0.9) + T(0.3) * T(v),
+                                                 T(-0.8) + T(0.05) * T((u * 7 + v * 3) % 5)));
+  for (std::uint32_t v = 0; v < 6; ++v)
+    for (std::uint32_t u = 0; u < 6; ++u) {
+      const std::uint32_t k = v * 7 + u;
+      bumps.triangles.push_back({k, k + 1, k + 8});
+      bumps.triangles.push_back({k + 8, k + 7, k});
     }
-    const bool v1 = embree.visible({a->point, b->point});
-    different += v1 != direct.visible({a->point, b->point}) ? 1 : 0;
-    hidden += v1 ? 0 : 1;
-    const auto sky = SurfacePoint<T>{square_to_uniform_sphere(rng.uniform2<T>()), {0, 0, 1}, {0, 0, 1}, invalid_id, invalid_id,
-                                     PointKind::direction};
-    const auto free_point = SurfacePoint<T>::at_point(inner + T(3) * square_to_uniform_sphere(rng.uniform2<T>()));
-    different += embree.visible({free_point, sky}) != direct.visible({free_point, sky}) ? 1 : 0;
-    different += embree.visible({a->point, free_point}) != direct.visible({a->point, free_point}) ? 1 : 0;
-  }
-  CHECK(different == 0);
-  CHECK(shading == 0);
-  CHECK(hits > n);                           // most rays hit something
-  CHECK(hidden > n / 20);                    // the spheres and the fan hide pairs
-  CHECK(hidden < n - n / 4);
+  desc.meshes.push_back(bumps);
+  REQUIRE(M(desc).primitive_count() > 2 * M::brute_force_max_primitives);
+  const auto large = compare_traversals<T>(desc, offset, n / 2, 22);
+  CHECK(large.different == 0);
+  CHECK(large.shading == 0);
+  CHECK(large.hits > n / 2);
+  CHECK(large.hidden > n / 20);
 }

@@ -65,8 +65,9 @@ namespace segpath {
 /// Traversal: a scene of at most brute_force_max_primitives primitives is traced, by default,
 /// without Embree's traversal: every primitive is tested directly with the same exact tests
 /// (adapters/embree/brute_force.hpp), which is faster at that size. Hits then differ from
-/// Embree's only where a ray meets two surfaces at the same distance, or passes within
-/// ~1e-12 (barycentric) of an edge that Embree's float test decides either way. The Embree
+/// Embree's only where Embree's float traversal decides otherwise: within float precision of a
+/// triangle's edge (Embree tests float vertices and a float ray), or between two surfaces
+/// whose distances agree to float precision (Embree keeps the nearer in float). The Embree
 /// scene is built either way (rtc_scene()).
 ///
 /// Thread safety: all queries are const and may run concurrently. Not copyable; movable (a

@@ -63,9 +63,13 @@ template <Real T>
 }
 
 /// How far outside its edges (in barycentric units) a triangle still counts as hit: far above
-/// the rounding of the barycentrics in double (~1e-15), so that a ray through the shared edge
-/// of two triangles never slips between them, and far below float's resolution of the
-/// vertices.
+/// the rounding of the barycentrics in double, far below float's resolution of the vertices.
+/// Two triangles in one plane (bit for bit, as the halves of an axis-aligned quad) share the
+/// point p = o + t d, and their barycentrics of it carry relative rounding of ~1e-16: a ray
+/// through their shared edge finds one of them. Two whose computed planes differ (a tilted or
+/// bent quad) meet a ray at distances that differ by ~2^-52 (|o| + |offset|) / |cos|: a ray
+/// within that of their shared edge can pass between them, a gap Embree's watertight float
+/// test does not have (never observed in the tests' random rays).
 inline constexpr double brute_force_edge_slack = 0x1p-40;
 
 /// A closest hit found by direct tests: a triangle (with its barycentrics) or a sphere.
