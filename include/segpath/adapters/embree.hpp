@@ -99,8 +99,10 @@ class EmbreeManifold {
     embree,       ///< Embree's BVH proposes candidates, the exact callbacks accept them
     brute_force,  ///< every primitive is tested exactly
   };
-  /// The largest scene that Traversal::automatic traces by direct tests.
-  static constexpr std::uint32_t brute_force_max_primitives = 32;
+  /// The largest scene that Traversal::automatic traces by direct tests: about where one
+  /// closest-hit and one visibility query (a path tracer's bounce) cost the same either way
+  /// (bench/renderer/embree_traversal_bench.cpp, docs/figures.md).
+  static constexpr std::uint32_t brute_force_max_primitives = 24;
 
   struct Description {
     std::vector<Mesh> meshes;

@@ -1,6 +1,6 @@
-// EmbreeManifold's traversal for scenes of a few dozen primitives: every primitive is tested
+// EmbreeManifold's traversal for scenes of about two dozen primitives: every primitive is tested
 // directly, in double, with the same exact tests the callbacks apply to Embree's candidates
-// (exact_callbacks.hpp). Below a few dozen primitives this is faster than Embree's traversal,
+// (exact_callbacks.hpp). At that size this is faster than Embree's traversal,
 // whose per-ray set-up and indirect callbacks a tiny BVH does not repay (docs/figures.md).
 #pragma once
 
@@ -17,19 +17,16 @@
 
 namespace segpath::detail {
 
-/// The non-degenerate triangles of a scene as the direct tests read them: structure of arrays
-/// (padded to a multiple of `lanes` with triangles that never hit), so that the compiler can test
-/// several triangles per instruction without a branch. Per triangle: its plane, the on-surface
+/// The non-degenerate triangles of a scene as the direct tests read them: structure of arrays,
+/// so that the compiler can test several triangles per instruction without a branch. Per triangle: its plane, the on-surface
 /// band of its own coordinates (2^-48 of their magnitude, embree_on_surface_tolerance), its first
 /// vertex and the dual basis of its edges in its plane, so that the barycentrics of a point p on
 /// the plane are b1 = dot(p - v0, dual1) and b2 = dot(p - v0, dual2).
 struct BruteForceTriangles {
-  static constexpr std::size_t lanes = 4;
   std::vector<double> nx, ny, nz, offset, band, v0x, v0y, v0z, d1x, d1y, d1z, d2x, d2y, d2z;
   std::vector<std::uint32_t> id;
 
   [[nodiscard]] std::size_t size() const noexcept { return id.size(); }
-  [[nodiscard]] bool empty() const noexcept { return id.empty(); }
 
   void push_back(const Vec3<double>& n, double plane_offset, double plane_band, const Vec3<double>& v0,
                  const Vec3<double>& dual1, const Vec3<double>& dual2, std::uint32_t triangle) {
@@ -41,8 +38,7 @@ struct BruteForceTriangles {
   }
 };
 
-/// The direct-test data of the non-degenerate triangles of `data`, in primitive-id order, padded
-/// with triangles whose barycentric basis is zero and whose band is infinite (never a hit).
+/// The direct-test data of the non-degenerate triangles of `data`, in primitive-id order.
 template <Real T>
 [[nodiscard]] BruteForceTriangles brute_force_triangles(const EmbreeSceneData<T>& data) {
   BruteForceTriangles out;
@@ -56,9 +52,6 @@ template <Real T>
     const Vec3<double> c1 = glm::cross(e2, plane.normal), c2 = glm::cross(plane.normal, e1);
     out.push_back(plane.normal, plane.offset, 0x1p-48 * plane.scale, v0, c1 / glm::dot(e1, c1), c2 / glm::dot(e2, c2), id);
   }
-  const Vec3<double> zero(0, 0, 0), up(0, 0, 1);
-  while (out.size() % BruteForceTriangles::lanes != 0)
-    out.push_back(up, 0, std::numeric_limits<double>::infinity(), zero, zero, zero, invalid_id);
   return out;
 }
 

@@ -1,0 +1,112 @@
+// Where EmbreeManifold's direct traversal (adapters/embree/brute_force.hpp) stops paying: the
+// same queries through Traversal::brute_force and Traversal::embree on scenes of N primitives,
+// a closed room (12 triangles) with N - 12 small random triangles inside, or N - 14 of them
+// and two spheres. Queries: rays from points on the room's surfaces in cosine-ish random
+// directions (intersect), and visibility between two such points. The crossover of the
+// per-query times is what EmbreeManifold::brute_force_max_primitives should be
+// (docs/figures.md).
+//   build/bench/renderer/bench_renderer_embree_traversal_bench
+#include <benchmark/benchmark.h>
+
+#include "segpath/adapters/embree.hpp"
+#include "segpath/core/rng.hpp"
+
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+namespace {
+
+using T = float;
+using M = segpath::EmbreeManifold<T>;
+using V = segpath::Vec3<T>;
+
+/// The inside of the unit cube, its six faces as two triangles each, normals inwards.
+M::Mesh room() {
+  M::Mesh mesh;
+  for (int i = 0; i < 8; ++i) mesh.positions.push_back(V(T(i & 1), T((i >> 1) & 1), T((i >> 2) & 1)));
+  const std::array<std::array<std::uint32_t, 4>, 6> faces{{{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1},
+                                                           {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}}};
+  for (const auto& f : faces) {
+    mesh.triangles.push_back({f[0], f[1], f[2]});
+    mesh.triangles.push_back({f[0], f[2], f[3]});
+  }
+  return mesh;
+}
+
+M::Description scene(std::uint32_t primitives, bool spheres, M::Traversal traversal) {
+  M::Description d;
+  d.traversal = traversal;
+  d.meshes.push_back(room());
+  const std::uint32_t sphere_count = spheres ? 2 : 0;
+  segpath::Pcg32 rng(7, 11);
+  auto u = [&] { return rng.uniform<T>(); };
+  M::Mesh clutter;
+  for (std::uint32_t k = 12 + sphere_count; k < primitives; ++k) {
+    const V c(T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u());
+    const auto base = std::uint32_t(clutter.positions.size());
+    for (int v = 0; v < 3; ++v) clutter.positions.push_back(c + T(0.12) * V(u() - T(0.5), u() - T(0.5), u() - T(0.5)));
+    clutter.triangles.push_back({base, base + 1, base + 2});
+  }
+  if (!clutter.triangles.empty()) d.meshes.push_back(clutter);
+  if (spheres) {
+    d.spheres.push_back({V(T(0.3), T(0.25), T(0.3)), T(0.18), 0});
+    d.spheres.push_back({V(T(0.7), T(0.25), T(0.65)), T(0.18), 0});
+  }
+  return d;
+}
+
+/// Points on the room's walls (the first mesh): where a path's rays start.
+std::vector<segpath::SurfacePoint<T>> wall_points(const M& manifold, std::size_t n) {
+  std::vector<segpath::SurfacePoint<T>> points;
+  segpath::Pcg32 rng(3, 5);
+  while (points.size() < n) {
+    const auto s = manifold.sample_area({rng.uniform2<T>()});
+    if (s && s->point.primitive_id < 12) points.push_back(s->point);
+  }
+  return points;
+}
+
+void intersect(benchmark::State& state, M::Traversal traversal, bool spheres) {
+  const M manifold(scene(std::uint32_t(state.range(0)), spheres, traversal));
+  const auto points = wall_points(manifold, 4096);
+  std::vector<segpath::IntersectQuery<T>> queries;
+  segpath::Pcg32 rng(9, 1);
+  for (const auto& p : points) {
+    // Into the room: the normal plus a random unit vector, normalised.
+    V d = p.normal + glm::normalize(V(rng.uniform<T>() - T(0.5), rng.uniform<T>() - T(0.5), rng.uniform<T>() - T(0.5)));
+    queries.push_back({segpath::Ray<T>{p.position, glm::normalize(d)}});
+  }
+  std::size_t hits = 0;
+  for (auto _ : state)
+    for (const auto& q : queries) hits += manifold.intersect(q).has_value() ? 1 : 0;
+  benchmark::DoNotOptimize(hits);
+  state.SetItemsProcessed(std::int64_t(state.iterations()) * std::int64_t(queries.size()));
+}
+
+void visible(benchmark::State& state, M::Traversal traversal, bool spheres) {
+  const M manifold(scene(std::uint32_t(state.range(0)), spheres, traversal));
+  const auto points = wall_points(manifold, 4096);
+  std::size_t seen = 0;
+  for (auto _ : state)
+    for (std::size_t i = 0; i + 1 < points.size(); i += 2) seen += manifold.visible({points[i], points[i + 1]}) ? 1 : 0;
+  benchmark::DoNotOptimize(seen);
+  state.SetItemsProcessed(std::int64_t(state.iterations()) * std::int64_t(points.size() / 2));
+}
+
+void sizes(benchmark::internal::Benchmark* b) {
+  for (int n : {16, 20, 24, 28, 32, 40, 48, 64, 128}) b->Arg(n);
+}
+
+BENCHMARK_CAPTURE(intersect, direct, M::Traversal::brute_force, false)->Apply(sizes);
+BENCHMARK_CAPTURE(intersect, embree, M::Traversal::embree, false)->Apply(sizes);
+BENCHMARK_CAPTURE(intersect, direct_spheres, M::Traversal::brute_force, true)->Apply(sizes);
+BENCHMARK_CAPTURE(intersect, embree_spheres, M::Traversal::embree, true)->Apply(sizes);
+BENCHMARK_CAPTURE(visible, direct, M::Traversal::brute_force, false)->Apply(sizes);
+BENCHMARK_CAPTURE(visible, embree, M::Traversal::embree, false)->Apply(sizes);
+
+}  // namespace
+
+BENCHMARK_MAIN();
