@@ -88,10 +88,11 @@ struct BruteForceHit {
   const double pz = q.origin.z + t * q.direction.z - tris.v0z[k];
   const double b1 = px * tris.d1x[k] + py * tris.d1y[k] + pz * tris.d1z[k];
   const double b2 = px * tris.d2x[k] + py * tris.d2y[k] + pz * tris.d2z[k];
-  const bool hit = (std::abs(s) > origin_band + tris.band[k]) & (std::abs(far) > far_band + tris.band[k]) & (t > 0) &
-                   (t < t_limit) & (b1 >= -brute_force_edge_slack) & (b2 >= -brute_force_edge_slack) &
-                   (b1 + b2 <= 1 + brute_force_edge_slack);
-  return hit ? t : std::numeric_limits<double>::infinity();
+  // Bitwise, not short-circuit: every lane evaluates every test.
+  const int hit = int(std::abs(s) > origin_band + tris.band[k]) & int(std::abs(far) > far_band + tris.band[k]) & int(t > 0) &
+                  int(t < t_limit) & int(b1 >= -brute_force_edge_slack) & int(b2 >= -brute_force_edge_slack) &
+                  int(b1 + b2 <= 1 + brute_force_edge_slack);
+  return hit != 0 ? t : std::numeric_limits<double>::infinity();
 }
 
 /// The barycentrics of the query's point at distance t on triangle k.
@@ -106,17 +107,18 @@ struct BruteForceHit {
 inline constexpr std::size_t brute_force_chunk = 32;
 
 /// The distances of triangles [first, first + count) (count <= brute_force_chunk) into `out`.
-inline void brute_force_chunk_distances(const BruteForceTriangles& tris, std::size_t first, std::size_t count,
+SEGPATH_FORCE_INLINE void brute_force_chunk_distances(const BruteForceTriangles& tris, std::size_t first, std::size_t count,
                                         const EmbreeQueryContext& q, double origin_band, double far_band,
                                         double* out) noexcept {
   for (std::size_t l = 0; l < count; ++l)
     out[l] = brute_force_triangle_distance(tris, first + l, q, origin_band, far_band, q.t_max);
 }
 
-/// The closest hit of the query among all primitives, by direct tests.
+/// brute_force_intersect's body, compiled once per instruction set (brute_force_intersect).
 template <Real T>
-[[nodiscard]] std::optional<BruteForceHit> brute_force_intersect(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,
-                                                                 const EmbreeQueryContext& q) noexcept {
+[[nodiscard]] SEGPATH_FORCE_INLINE std::optional<BruteForceHit> brute_force_intersect_body(const EmbreeSceneData<T>& data,
+                                                                                         const BruteForceTriangles& tris,
+                                                                                         const EmbreeQueryContext& q) noexcept {
   const double origin_band = embree_on_surface_tolerance<T>(q.origin, 0.0);
   constexpr double no_far = -std::numeric_limits<double>::infinity();  // rejects nothing
   double best = q.t_max;
@@ -145,10 +147,10 @@ template <Real T>
   return hit;
 }
 
-/// Whether any primitive blocks the query (its open segment, or its ray when t_max is infinite).
+/// brute_force_occluded's body, compiled once per instruction set (brute_force_occluded).
 template <Real T>
-[[nodiscard]] bool brute_force_occluded(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,
-                                        const EmbreeQueryContext& q) noexcept {
+[[nodiscard]] SEGPATH_FORCE_INLINE bool brute_force_occluded_body(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,
+                                                                 const EmbreeQueryContext& q) noexcept {
   const double origin_band = embree_on_surface_tolerance<T>(q.origin, 0.0);
   const double far_band = q.skip_far_surface ? embree_on_surface_tolerance<T>(q.far_point, 0.0)
                                              : -std::numeric_limits<double>::infinity();
@@ -163,6 +165,76 @@ template <Real T>
   for (std::uint32_t k = 0; k < data.spheres.size(); ++k)
     if (embree_sphere_distance(data, k, q)) return true;
   return false;
+}
+
+#if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(__AVX2__)
+// Where the build targets less than AVX2 (no -march: SSE2's 2 double lanes), the chunk loop is
+// also compiled for AVX2 (4 lanes) and, with GCC, AVX-512 (8), and each query runs the widest
+// the CPU has. Without multiply-add contraction (AVX-512F has FMA; clang could not be told not
+// to fuse in the inlined tests, so it gets AVX2 only): the same operations, the same numbers.
+#  define SEGPATH_BRUTE_FORCE_DISPATCH 1
+#  if defined(__clang__)
+#    define SEGPATH_BRUTE_FORCE_AVX512 0
+#    define SEGPATH_BRUTE_FORCE_ATTRIBUTES(isa) [[gnu::target(isa), gnu::noinline]]
+#  else
+#    define SEGPATH_BRUTE_FORCE_AVX512 1
+#    define SEGPATH_BRUTE_FORCE_ATTRIBUTES(isa) [[gnu::target(isa), gnu::optimize("fp-contract=off"), gnu::noinline]]
+#  endif
+/// The widest variant the CPU runs: 2 AVX-512 (F, VL, DQ), 1 AVX2, 0 the build's own. Tests
+/// lower it to run every variant; nothing else writes it.
+inline int brute_force_isa = [] {
+  __builtin_cpu_init();
+  if (SEGPATH_BRUTE_FORCE_AVX512 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+      __builtin_cpu_supports("avx512dq"))
+    return 2;
+  return __builtin_cpu_supports("avx2") ? 1 : 0;
+}();
+#  define SEGPATH_BRUTE_FORCE_VARIANT(suffix, isa)                                                                      \
+    template <Real T>                                                                                                 \
+    SEGPATH_BRUTE_FORCE_ATTRIBUTES(isa)                                                                               \
+    std::optional<BruteForceHit> brute_force_intersect_##suffix(const EmbreeSceneData<T>& data,                       \
+                                                                const BruteForceTriangles& tris,                      \
+                                                                const EmbreeQueryContext& q) noexcept {               \
+      return brute_force_intersect_body(data, tris, q);                                                               \
+    }                                                                                                                 \
+    template <Real T>                                                                                                 \
+    SEGPATH_BRUTE_FORCE_ATTRIBUTES(isa)                                                                               \
+    bool brute_force_occluded_##suffix(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,               \
+                                       const EmbreeQueryContext& q) noexcept {                                        \
+      return brute_force_occluded_body(data, tris, q);                                                                \
+    }
+SEGPATH_BRUTE_FORCE_VARIANT(avx2, "avx2")
+#  if SEGPATH_BRUTE_FORCE_AVX512
+SEGPATH_BRUTE_FORCE_VARIANT(avx512, "avx512f,avx512vl,avx512dq")
+#  endif
+#  undef SEGPATH_BRUTE_FORCE_VARIANT
+#  undef SEGPATH_BRUTE_FORCE_ATTRIBUTES
+#endif
+
+/// The closest hit of the query among all primitives, by direct tests.
+template <Real T>
+[[nodiscard]] std::optional<BruteForceHit> brute_force_intersect(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,
+                                                                 const EmbreeQueryContext& q) noexcept {
+#ifdef SEGPATH_BRUTE_FORCE_DISPATCH
+#  if SEGPATH_BRUTE_FORCE_AVX512
+  if (brute_force_isa == 2) return brute_force_intersect_avx512(data, tris, q);
+#  endif
+  if (brute_force_isa == 1) return brute_force_intersect_avx2(data, tris, q);
+#endif
+  return brute_force_intersect_body(data, tris, q);
+}
+
+/// Whether any primitive blocks the query (its open segment, or its ray when t_max is infinite).
+template <Real T>
+[[nodiscard]] bool brute_force_occluded(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,
+                                        const EmbreeQueryContext& q) noexcept {
+#ifdef SEGPATH_BRUTE_FORCE_DISPATCH
+#  if SEGPATH_BRUTE_FORCE_AVX512
+  if (brute_force_isa == 2) return brute_force_occluded_avx512(data, tris, q);
+#  endif
+  if (brute_force_isa == 1) return brute_force_occluded_avx2(data, tris, q);
+#endif
+  return brute_force_occluded_body(data, tris, q);
 }
 
 }  // namespace segpath::detail
