@@ -62,7 +62,7 @@ namespace segpath {
 /// and visible, but area() is 0 and sample_area() always returns nullopt; check
 /// can_sample_area() before handing it to an estimator that samples by area.
 ///
-/// Traversal: a scene of at most brute_force_max_primitives primitives is traced, by default,
+/// Traversal: a scene of at most brute_force_max_primitives() primitives is traced, by default,
 /// without Embree's traversal: every primitive is tested directly with the same exact tests
 /// (adapters/embree/brute_force.hpp), which is faster at that size. Hits then differ from
 /// Embree's only where Embree's float traversal decides otherwise: within float precision of a
@@ -95,14 +95,13 @@ class EmbreeManifold {
   };
   /// How queries find their candidates (see the class comment).
   enum class Traversal : std::uint8_t {
-    automatic,    ///< brute_force up to brute_force_max_primitives primitives, else embree
+    automatic,    ///< brute_force up to brute_force_max_primitives() primitives, else embree
     embree,       ///< Embree's BVH proposes candidates, the exact callbacks accept them
     brute_force,  ///< every primitive is tested exactly
   };
-  /// The largest scene that Traversal::automatic traces by direct tests: about where one
-  /// closest-hit and one visibility query (a path tracer's bounce) cost the same either way
-  /// (bench/renderer/embree_traversal_bench.cpp, docs/figures.md).
-  static constexpr std::uint32_t brute_force_max_primitives = 24;
+  /// The largest scene that Traversal::automatic traces by direct tests: 40 primitives on a
+  /// CPU with AVX2, else 24 (detail::brute_force_automatic_limit).
+  [[nodiscard]] static std::uint32_t brute_force_max_primitives() noexcept { return detail::brute_force_automatic_limit(); }
 
   struct Description {
     std::vector<Mesh> meshes;
@@ -122,7 +121,7 @@ class EmbreeManifold {
     load(description);
     build(device_config);
     const bool direct = description.traversal == Traversal::brute_force ||
-                        (description.traversal == Traversal::automatic && primitive_count() <= brute_force_max_primitives);
+                        (description.traversal == Traversal::automatic && primitive_count() <= brute_force_max_primitives());
     if (direct) direct_triangles_ = detail::brute_force_triangles(*data_);
     brute_force_ = direct;
   }

@@ -1,7 +1,8 @@
-// EmbreeManifold's traversal for scenes of about two dozen primitives: every primitive is tested
-// directly, in double, with the same exact tests the callbacks apply to Embree's candidates
-// (exact_callbacks.hpp). At that size this is faster than Embree's traversal,
-// whose per-ray set-up and indirect callbacks a tiny BVH does not repay (docs/figures.md).
+// EmbreeManifold's traversal for scenes of a couple of dozen primitives: every primitive is
+// tested directly, in double, with the same exact tests the callbacks apply to Embree's
+// candidates (exact_callbacks.hpp). At that size a closest hit and a visibility query together
+// cost less than through Embree's traversal, whose per-ray set-up and indirect callbacks a tiny
+// BVH does not repay (docs/figures.md).
 #pragma once
 
 #include "segpath/adapters/embree/exact_callbacks.hpp"
@@ -168,57 +169,51 @@ template <Real T>
 }
 
 #if (defined(__GNUC__) || defined(__clang__)) && defined(__x86_64__) && !defined(__AVX2__)
-// Where the build targets less than AVX2 (no -march: SSE2's 2 double lanes), the chunk loop is
-// also compiled for AVX2 (4 lanes) and, with GCC, AVX-512 (8), and each query runs the widest
-// the CPU has. Without multiply-add contraction (AVX-512F has FMA; clang could not be told not
-// to fuse in the inlined tests, so it gets AVX2 only): the same operations, the same numbers.
+// Where a translation unit is compiled for less than AVX2 (no -march: SSE2's 2 double lanes),
+// the query bodies are also compiled for AVX2 (4 lanes, and no multiply-add: the same
+// operations, the same numbers), and each query runs that variant where the CPU has AVX2. The
+// choice is per translation unit: units that include this header must agree on -mavx2 (or
+// -march), or the linker may keep an AVX2 build of brute_force_intersect for all of them.
 #  define SEGPATH_BRUTE_FORCE_DISPATCH 1
-#  if defined(__clang__)
-#    define SEGPATH_BRUTE_FORCE_AVX512 0
-#    define SEGPATH_BRUTE_FORCE_ATTRIBUTES(isa) [[gnu::target(isa), gnu::noinline]]
-#  else
-#    define SEGPATH_BRUTE_FORCE_AVX512 1
-#    define SEGPATH_BRUTE_FORCE_ATTRIBUTES(isa) [[gnu::target(isa), gnu::optimize("fp-contract=off"), gnu::noinline]]
-#  endif
-/// The widest variant the CPU runs: 2 AVX-512 (F, VL, DQ), 1 AVX2, 0 the build's own. Tests
-/// lower it to run every variant; nothing else writes it.
+/// 1 where the CPU has AVX2, else 0. Tests lower it to run both variants; nothing else writes it.
+/// (Zero-initialised before its initialiser runs: a query from another static initialiser
+/// runs the build's own variant.)
 inline int brute_force_isa = [] {
   __builtin_cpu_init();
-  if (SEGPATH_BRUTE_FORCE_AVX512 && __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-      __builtin_cpu_supports("avx512dq"))
-    return 2;
   return __builtin_cpu_supports("avx2") ? 1 : 0;
 }();
-#  define SEGPATH_BRUTE_FORCE_VARIANT(suffix, isa)                                                                      \
-    template <Real T>                                                                                                 \
-    SEGPATH_BRUTE_FORCE_ATTRIBUTES(isa)                                                                               \
-    std::optional<BruteForceHit> brute_force_intersect_##suffix(const EmbreeSceneData<T>& data,                       \
-                                                                const BruteForceTriangles& tris,                      \
-                                                                const EmbreeQueryContext& q) noexcept {               \
-      return brute_force_intersect_body(data, tris, q);                                                               \
-    }                                                                                                                 \
-    template <Real T>                                                                                                 \
-    SEGPATH_BRUTE_FORCE_ATTRIBUTES(isa)                                                                               \
-    bool brute_force_occluded_##suffix(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,               \
-                                       const EmbreeQueryContext& q) noexcept {                                        \
-      return brute_force_occluded_body(data, tris, q);                                                                \
-    }
-SEGPATH_BRUTE_FORCE_VARIANT(avx2, "avx2")
-#  if SEGPATH_BRUTE_FORCE_AVX512
-SEGPATH_BRUTE_FORCE_VARIANT(avx512, "avx512f,avx512vl,avx512dq")
-#  endif
-#  undef SEGPATH_BRUTE_FORCE_VARIANT
-#  undef SEGPATH_BRUTE_FORCE_ATTRIBUTES
+template <Real T>
+[[gnu::target("avx2"), gnu::noinline]] std::optional<BruteForceHit> brute_force_intersect_avx2(
+    const EmbreeSceneData<T>& data, const BruteForceTriangles& tris, const EmbreeQueryContext& q) noexcept {
+  return brute_force_intersect_body(data, tris, q);
+}
+template <Real T>
+[[gnu::target("avx2"), gnu::noinline]] bool brute_force_occluded_avx2(const EmbreeSceneData<T>& data,
+                                                                      const BruteForceTriangles& tris,
+                                                                      const EmbreeQueryContext& q) noexcept {
+  return brute_force_occluded_body(data, tris, q);
+}
 #endif
+
+/// The largest scene EmbreeManifold's automatic traversal traces by direct tests: about where
+/// a closest hit plus a visibility query cost the same as through Embree's traversal
+/// (bench/renderer/embree_traversal_bench.cpp, docs/figures.md), 40 primitives with AVX2's 4
+/// double lanes, 24 with 2.
+[[nodiscard]] inline std::uint32_t brute_force_automatic_limit() noexcept {
+#if defined(__AVX2__)
+  return 40;
+#elif defined(SEGPATH_BRUTE_FORCE_DISPATCH)
+  return brute_force_isa == 1 ? 40 : 24;
+#else
+  return 24;
+#endif
+}
 
 /// The closest hit of the query among all primitives, by direct tests.
 template <Real T>
 [[nodiscard]] std::optional<BruteForceHit> brute_force_intersect(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,
                                                                  const EmbreeQueryContext& q) noexcept {
 #ifdef SEGPATH_BRUTE_FORCE_DISPATCH
-#  if SEGPATH_BRUTE_FORCE_AVX512
-  if (brute_force_isa == 2) return brute_force_intersect_avx512(data, tris, q);
-#  endif
   if (brute_force_isa == 1) return brute_force_intersect_avx2(data, tris, q);
 #endif
   return brute_force_intersect_body(data, tris, q);
@@ -229,9 +224,6 @@ template <Real T>
 [[nodiscard]] bool brute_force_occluded(const EmbreeSceneData<T>& data, const BruteForceTriangles& tris,
                                         const EmbreeQueryContext& q) noexcept {
 #ifdef SEGPATH_BRUTE_FORCE_DISPATCH
-#  if SEGPATH_BRUTE_FORCE_AVX512
-  if (brute_force_isa == 2) return brute_force_occluded_avx512(data, tris, q);
-#  endif
   if (brute_force_isa == 1) return brute_force_occluded_avx2(data, tris, q);
 #endif
   return brute_force_occluded_body(data, tris, q);
