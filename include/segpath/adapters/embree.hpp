@@ -244,8 +244,8 @@ class EmbreeManifold {
       const Vec3<double> d = detail::to_double(b->position);
       const double length = glm::length(d);
       if (!(length > 0) || !std::isfinite(length)) return false;
-      return !occluded(context(detail::to_double(a->position), d / length,
-                               std::numeric_limits<double>::infinity(), nullptr));
+      auto ctx = context(detail::to_double(a->position), d / length, std::numeric_limits<double>::infinity(), nullptr);
+      return !occluded(ctx);
     }
     // Trace from the lexicographically smaller endpoint: the same query either way round.
     if (std::tie(b->position.x, b->position.y, b->position.z) <
@@ -256,7 +256,8 @@ class EmbreeManifold {
     const double distance = glm::length(far - o);
     if (distance == 0) return true;
     if (!std::isfinite(distance)) return false;
-    return !occluded(context(o, (far - o) / distance, distance, &far));
+    auto ctx = context(o, (far - o) / distance, distance, &far);
+    return !occluded(ctx);
   }
 
   /// The on-surface band (see the class comment) for a point p and a surface whose
@@ -270,8 +271,10 @@ class EmbreeManifold {
   [[nodiscard]] detail::EmbreeQueryContext context(const Vec3<double>& o, const Vec3<double>& d,
                                                    double t_max,
                                                    const Vec3<double>* far) const noexcept {
-    detail::EmbreeQueryContext ctx{};
-    rtcInitIntersectContext(&ctx.base);
+    // Every field is set below; Embree's part is set up only where Embree traverses.
+    detail::EmbreeQueryContext ctx;
+    if (brute_force_) ctx.base = RTCIntersectContext{};
+    else rtcInitIntersectContext(&ctx.base);
     ctx.data = data_.get();
     ctx.origin = o;
     ctx.direction = d;
@@ -303,7 +306,7 @@ class EmbreeManifold {
     ray.flags = 0;
   }
 
-  [[nodiscard]] bool occluded(detail::EmbreeQueryContext ctx) const noexcept {
+  [[nodiscard]] bool occluded(detail::EmbreeQueryContext& ctx) const noexcept {
     if (brute_force_) return detail::brute_force_occluded(*data_, direct_triangles_, ctx);
     RTCRay ray;
     set_ray(ray, ctx);
