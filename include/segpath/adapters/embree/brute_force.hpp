@@ -19,10 +19,11 @@
 namespace segpath::detail {
 
 /// The non-degenerate triangles of a scene as the direct tests read them: structure of arrays,
-/// so that the compiler can test several triangles per instruction without a branch. Per triangle: its plane, the on-surface
-/// band of its own coordinates (2^-48 of their magnitude, embree_on_surface_tolerance), its first
-/// vertex and the dual basis of its edges in its plane, so that the barycentrics of a point p on
-/// the plane are b1 = dot(p - v0, dual1) and b2 = dot(p - v0, dual2).
+/// so that the compiler can test several triangles per instruction without a branch. Per
+/// triangle: its plane, the on-surface band of its own coordinates (2^-48 of their magnitude,
+/// embree_on_surface_tolerance), its first vertex and the dual basis of its edges in its plane,
+/// so that the barycentrics of a point p on the plane are b1 = dot(p - v0, dual1) and
+/// b2 = dot(p - v0, dual2).
 struct BruteForceTriangles {
   std::vector<double> nx, ny, nz, offset, band, v0x, v0y, v0z, d1x, d1y, d1z, d2x, d2y, d2z;
   std::vector<std::uint32_t> id;
@@ -109,8 +110,8 @@ inline constexpr std::size_t brute_force_chunk = 32;
 
 /// The distances of triangles [first, first + count) (count <= brute_force_chunk) into `out`.
 SEGPATH_FORCE_INLINE void brute_force_chunk_distances(const BruteForceTriangles& tris, std::size_t first, std::size_t count,
-                                        const EmbreeQueryContext& q, double origin_band, double far_band,
-                                        double* out) noexcept {
+                                                      const EmbreeQueryContext& q, double origin_band, double far_band,
+                                                      double* out) noexcept {
   for (std::size_t l = 0; l < count; ++l)
     out[l] = brute_force_triangle_distance(tris, first + l, q, origin_band, far_band, q.t_max);
 }
