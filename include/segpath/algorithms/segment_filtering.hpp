@@ -178,7 +178,7 @@ class SegmentFiltering {
       else drops.add(DropReason::non_finite);
     }
     stats.bytes_per_segment = pool.bytes_per_segment() + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
-                              (pool.size() > 0 ? (stats.propagation_copy_bytes + stats.lagged_bytes) / pool.size() : 0);
+                              (pool.size() > 0 ? (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes) / pool.size() : 0);
     lap(stats.gather_seconds);
     return stats;
   }

@@ -65,7 +65,8 @@
 // s) L_e, without (U) and with (W) s's own free r. A successor s' is read as W_e(s'), or
 // U_e(s') / D_lt(s') where s forces it. k Jacobi iterations count chains of up to k + 1
 // segments. Cost per iteration: one link and at most one q_l evaluation per junction, or O(n + m) in a
-// factorised cluster (three classes of s'); memory two sets of four values per segment.
+// factorised cluster (three classes of s'); memory two sets of W per segment, and of U only
+// for the segments a junction can force.
 #pragma once
 
 #include "segpath/config.hpp"
@@ -294,27 +295,32 @@ template <Spectrum S, class Pair>
 /// that read_successor selects. Linear in `v`: a factorised cluster passes sums over
 /// successors of one flag class.
 template <Spectrum S>
-SEGPATH_FORCE_INLINE void apply_junction(const ConditionedJunction<S>& j, const std::array<S, 2>& v,
-                                         ConditionedValues<S>& acc) noexcept {
-  const S c0 = j.transfer * v[0], c1 = j.transfer * v[1];
+SEGPATH_FORCE_INLINE void apply_junction(const S& transfer, const std::array<spectrum_scalar_t<S>, 2>& r, std::uint8_t code,
+                                         const std::array<S, 2>& v, ConditionedValues<S>& acc) noexcept {
+  const S c0 = transfer * v[0], c1 = transfer * v[1];
   // e(s) from e(s') = 0 is at most e(s) from e(s') = 1, so three cases; constant indices keep
   // acc in registers (an indexed acc would chain every pair through memory).
-  switch (j.code >> 1) {
+  switch (code >> 1) {
     case 0:  // both to e(s) = 0
       acc.u[0] += c0 + c1;
-      acc.w[0] += c0 * j.r[0] + c1 * j.r[1];
+      acc.w[0] += c0 * r[0] + c1 * r[1];
       break;
     case 2:  // e(s') = 0 to e(s) = 0, e(s') = 1 to e(s) = 1
       acc.u[0] += c0;
-      acc.w[0] += c0 * j.r[0];
+      acc.w[0] += c0 * r[0];
       acc.u[1] += c1;
-      acc.w[1] += c1 * j.r[1];
+      acc.w[1] += c1 * r[1];
       break;
     default:  // 3: both to e(s) = 1
       acc.u[1] += c0 + c1;
-      acc.w[1] += c0 * j.r[0] + c1 * j.r[1];
+      acc.w[1] += c0 * r[0] + c1 * r[1];
       break;
   }
+}
+template <Spectrum S>
+SEGPATH_FORCE_INLINE void apply_junction(const ConditionedJunction<S>& j, const std::array<S, 2>& v,
+                                         ConditionedValues<S>& acc) noexcept {
+  apply_junction(j.transfer, j.r, j.code, v, acc);
 }
 
 /// Adds the junction s -> s' to s's values (conditioned_coefficients, then apply_junction).
@@ -332,6 +338,7 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 struct ConditionedMemory {
   std::size_t junction_table = 0;  ///< the ConditionedJunction table (junction_cache_bytes at most)
   std::size_t lagged = 0;          ///< the lagged values of chains and their watches: 0 without chains
+  std::size_t forced_values = 0;   ///< the U values of the segments a junction can force, and their copies
 };
 
 /// `iterations` >= 1 Jacobi iterations over the groups of a JunctionSupport (clusters, disks)
@@ -342,8 +349,10 @@ struct ConditionedMemory {
 /// number of threads. Over clusters everything is kept per slot in group order, so an iteration
 /// reads the values of each s' at random once per starting slot and the rest in order; over
 /// disks what is read of a start is kept per segment and read at random (StartRecords).
-/// Memory: two ConditionedValues (the values, updated in place, and a start's gathered copy),
-/// the emission in 16 bytes and 32 bytes (float) per segment.
+/// Memory per segment: W twice (the values, updated in place, and a start's gathered copy), the
+/// emission in 16 bytes and 32 bytes more (float), and two indices; U twice only for the
+/// segments a junction can force (forced_weight > 0: light technique samples), returned in
+/// ConditionedMemory::forced_values.
 ///
 /// `factorised[g]` (optional, one per group; J::factorisable supports only) marks groups where
 /// link(s, s') = diffuse[s] for every s ending and s' starting there and light_pair(s, s') is
@@ -375,21 +384,22 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   // Everything per slot (or start record), in group order: an iteration reads the values of s'
   // at random once per record and the rest in order.
   // One set of values per ending slot, updated in place: a sweep reads the previous iteration's
-  // values only through the starts' copies, gathered before it starts. The copies keep W and U
-  // apart: a start reads U only where a junction can force it (forced_weight > 0), so the
-  // gather reads 24 of a slot's 48 bytes (Rgb<float>) at random; other starts keep U = 0.
+  // values only through the starts' copies, gathered before it starts. W and U are kept apart:
+  // a start's U is read only where a junction can force it (forced_weight > 0), so U is kept
+  // only for those starts and for the ending slots they read, at the indices record_u and
+  // slot_u (0: none; starting_u[0] stays zero, what every other start reads).
   using Pair = std::array<S, 2>;
   std::vector<detail::ConditionedEnd<T>> end(ending_slots);
   std::vector<detail::ConditionedEmission<S>> emission(ending_slots);
-  std::vector<ConditionedValues<S>> current(ending_slots);
+  std::vector<Pair> current_w(ending_slots);
   const Pair zero{S(T(0)), S(T(0))};
-  std::vector<Pair> starting_w(record.size(), zero), starting_u(record.size(), zero);
+  std::vector<Pair> starting_w(record.size(), zero);
   std::vector<detail::ConditionedStart<T>> start(record.size());
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     const std::uint32_t s = ending_segment[i];
     end[i] = detail::conditioned_end(in, s);
     emission[i] = detail::compact_emission(in, s);
-    current[i] = emission[i].values();
+    current_w[i] = emission[i].values().w;
   });
   auto emission_values = [&](std::uint32_t i) { return emission[i].values(); };
   for_blocks(record.size(), parallel_for, [&](std::size_t r) {
@@ -397,6 +407,26 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     start[r] = {in.geometry[sp], detail::conditioned_forced_weight(in, sp), support.ending_slot_of(sp),
                 in.pieces.empty() ? std::uint16_t(1) : in.pieces[sp], in.flags[sp]};
   });
+  std::vector<std::uint32_t> slot_u(ending_slots, 0), record_u(record.size(), 0);
+  std::uint32_t forced_slots = 0, forced_records = 0;
+  for (std::size_t r = 0; r < record.size(); ++r) {
+    if (!(start[r].forced_weight > T(0))) continue;
+    record_u[r] = ++forced_records;
+    if (const std::uint32_t i = start[r].source; i != no_cluster && slot_u[i] == 0) slot_u[i] = ++forced_slots;
+  }
+  // (No slot's U is read before the first sweep has written it: at budget 0 a start reads the emission.)
+  std::vector<Pair> current_u(std::size_t(forced_slots) + 1, zero), starting_u(std::size_t(forced_records) + 1, zero);
+  // The values of ending slot i as a sweep left them (U zero where not kept), and storing them.
+  auto values_at = [&](std::uint32_t i) {
+    ConditionedValues<S> v;
+    v.w = current_w[i];
+    if (slot_u[i] != 0) v.u = current_u[slot_u[i]];
+    return v;
+  };
+  auto store = [&](std::uint32_t i, const ConditionedValues<S>& v) {
+    current_w[i] = v.w;
+    if (slot_u[i] != 0) current_u[slot_u[i]] = v.u;
+  };
   // Classes of s' in a factorised group: 0 not a potential light technique, 1 potential,
   // 2 light technique sample. There q_l(s | s') is the same for every potential s', so each
   // ending slot of a factorised group has three junctions, one per class, fixed for the whole
@@ -451,9 +481,10 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     }
     return detail::conditioned_coefficients(end[i], st.flags, st.forced_weight, S(f * (kernel * st.geometry)), ql);
   };
-  // What junction j reads of starting slot j's record r.
+  // What junction j reads of starting slot j's record r: U where it forces the start
+  // (read_successor), indexed only then.
   auto read = [&](const Junction& j, std::uint32_t r) -> const Pair& {
-    return detail::read_successor(j, starting_u[r], starting_w[r]);
+    return (j.code & 1) ? starting_u[record_u[r]] : starting_w[r];
   };
   // s -> s' is a junction: s' carries weight and is not s.
   auto joins = [&](std::uint32_t i, std::uint32_t j) {
@@ -493,7 +524,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
       const int b = depth == 1 ? k : k + 1 - int(st.pieces);
       auto gather = [&](const ConditionedValues<S>& v) {
         starting_w[r] = v.w;
-        if (forceable) starting_u[r] = v.u;
+        if (forceable) starting_u[record_u[r]] = v.u;
       };
       // Before budget 0 a start reads nothing (its values are still the zeros they were made
       // with); one without a source reads its emission from budget 0 on (written once).
@@ -504,8 +535,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         gather(emission_values(i));
       } else if (depth == 1 || start_watch[r] == detail::no_watch) {
         // The common case, field by field: through `gather` the gather is slower (figures.md).
-        starting_w[r] = current[i].w;
-        if (forceable) starting_u[r] = current[i].u;
+        starting_w[r] = current_w[i];
+        if (forceable) starting_u[record_u[r]] = current_u[slot_u[i]];
       } else {
         gather(lagged.at(start_watch[r], b));
       }
@@ -524,27 +555,30 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
               const Pair& w = starting_w[record(j)];
               for (int e = 0; e < 2; ++e) sum[k_class].w[e] += w[e] * st.geometry;
               if (st.forced_weight > T(0)) {
-                const Pair& u = starting_u[record(j)];
+                const Pair& u = starting_u[record_u[record(j)]];
                 for (int e = 0; e < 2; ++e) sum[k_class].u[e] += u[e] * (st.geometry * st.forced_weight);
               }
             }
             return sum;
           };
-          auto values_of = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
+          // Ending slot i's values from the class sums `sum`, stored (not returned: a returned
+          // value went through the stack, figures.md).
+          auto update = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
             ConditionedValues<S> acc = emission_values(i);
+            // Field by field: a ConditionedJunction built from them went through the stack.
             const detail::ClassJunctions<S>& junctions = class_junction[class_offset[g] + (i - ending.begin)];
             for (int k_class = 0; k_class < 3; ++k_class) {
-              const Junction j = junctions[k_class];
-              detail::apply_junction(j, detail::read_successor(j, sum[k_class].u, sum[k_class].w), acc);
+              const std::uint8_t code = junctions.code[k_class];
+              detail::apply_junction(junctions.transfer, junctions.r[k_class], code, (code & 1) ? sum[k_class].u : sum[k_class].w, acc);
             }
-            return acc;
+            store(i, acc);
           };
           const std::array<ConditionedValues<S>, 3> all = class_sums(no_cluster);
-          for (std::uint32_t i = ending.begin; i < ending.end; ++i) current[i] = values_of(i, all);
+          for (std::uint32_t i = ending.begin; i < ending.end; ++i) update(i, all);
           // A segment starting here too does not join itself (propagation/propagate.hpp): its
           // sums again without its own start, summed afresh (no cancellation of a dominant term).
           for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-            if (const std::uint32_t i = start[record(j)].source; ending.contains(i)) current[i] = values_of(i, class_sums(j));
+            if (const std::uint32_t i = start[record(j)].source; ending.contains(i)) update(i, class_sums(j));
           return;
         }
       }
@@ -552,8 +586,14 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
       for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
         ConditionedValues<S> acc = emission_values(i);
         if (const Junction* row = table.row(i, starting.begin)) {
-          for (std::uint32_t j = starting.begin; j < starting.end; ++j, ++row)
-            if (joins(i, j)) detail::apply_junction(*row, read(*row, record(j)), acc);
+          // Only a light-born s forces a start (conditioned_coefficients): the other rows read W.
+          if (end[i].flags & conditioned_light_born) {
+            for (std::uint32_t j = starting.begin; j < starting.end; ++j, ++row)
+              if (joins(i, j)) detail::apply_junction(*row, read(*row, record(j)), acc);
+          } else {
+            for (std::uint32_t j = starting.begin; j < starting.end; ++j, ++row)
+              if (joins(i, j)) detail::apply_junction(*row, starting_w[record(j)], acc);
+          }
         } else {
           for (std::uint32_t j = starting.begin; j < starting.end; ++j)
             if (joins(i, j)) {
@@ -561,10 +601,10 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
               detail::apply_junction(jn, read(jn, record(j)), acc);
             }
         }
-        current[i] = acc;
+        store(i, acc);
       }
     });
-    if (depth > 1) lagged.keep(k + 1, std::span<const ConditionedValues<S>>(current), parallel_for);
+    if (depth > 1) lagged.keep_each(k + 1, values_at, parallel_for);
   }
   // Segments whose y end is in no group keep their emission; each segment's value is over
   // paths of at most iterations + 1 segments, A^(iterations + 1 - p(s)).
@@ -577,10 +617,11 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     const int b = budget_of(ending_segment[i]);
     if (b <= 0) return;  // its emission, or nothing
-    const Pair& w = depth == 1 || end_watch[i] == detail::no_watch ? current[i].w : lagged.at(end_watch[i], b).w;
+    const Pair& w = depth == 1 || end_watch[i] == detail::no_watch ? current_w[i] : lagged.at(end_watch[i], b).w;
     weighted[ending_segment[i]] = w[0] + w[1];
   });
-  return ConditionedMemory{table.value_bytes(), lagged.bytes() + (end_watch.capacity() + start_watch.capacity()) * sizeof(std::uint32_t)};
+  return ConditionedMemory{table.value_bytes(), lagged.bytes() + (end_watch.capacity() + start_watch.capacity()) * sizeof(std::uint32_t),
+                           (current_u.capacity() + starting_u.capacity()) * sizeof(Pair)};
 }
 
 }  // namespace segpath

@@ -47,8 +47,13 @@ class LaggedValues {
   /// Keeps A^(budget) of every watched slot, `values` indexed by ending slot.
   template <ParallelFor P>
   void keep(int budget, std::span<const V> values, const P& parallel_for) {
+    keep_each(budget, [&](std::uint32_t slot) -> const V& { return values[slot]; }, parallel_for);
+  }
+  /// keep, the value of ending slot i being value_of(i).
+  template <class ValueOf, ParallelFor P>
+  void keep_each(int budget, const ValueOf& value_of, const P& parallel_for) {
     for_blocks(slot_.size(), parallel_for, [&](std::size_t w) {
-      values_[offset_[w] + std::size_t(budget % pieces_[w])] = values[slot_[w]];
+      values_[offset_[w] + std::size_t(budget % pieces_[w])] = value_of(slot_[w]);
     });
   }
   /// The rings' and their watches' bytes.

@@ -16,6 +16,7 @@
 #include "segpath/propagation/path_conditioned.hpp"
 #include "segpath/propagation/propagate.hpp"
 
+#include <array>
 #include <cstdint>
 #include <type_traits>
 #include <vector>
@@ -24,12 +25,13 @@ namespace segpath::filtering {
 
 /// The path-conditioned propagation's memory per segment, besides the junction table
 /// (FilteringOptions::transfer_cache_bytes) and the copies of FilteringStats::propagation_copy_bytes:
-/// at most, per ending slot its values, emission, end and class junctions, per start its values
-/// and start, per segment its light side (LightSide) and the s-only factor of q_l.
+/// at most, per ending slot its W values, emission, end, class junctions and U index, per start
+/// its W values, start and U index, per segment its light side (LightSide) and the s-only factor
+/// of q_l. The U values of the segments a junction can force are in FilteringStats::forced_value_bytes.
 template <Spectrum S>
 inline constexpr std::size_t conditioned_bytes_per_segment =
-    2 * sizeof(ConditionedValues<S>) + sizeof(detail::ConditionedEmission<S>) + sizeof(detail::ConditionedEnd<spectrum_scalar_t<S>>) +
-    sizeof(detail::ClassJunctions<S>) + sizeof(detail::ConditionedStart<spectrum_scalar_t<S>>) +
+    2 * sizeof(std::array<S, 2>) + sizeof(detail::ConditionedEmission<S>) + sizeof(detail::ConditionedEnd<spectrum_scalar_t<S>>) +
+    sizeof(detail::ClassJunctions<S>) + sizeof(detail::ConditionedStart<spectrum_scalar_t<S>>) + 2 * sizeof(std::uint32_t) +
     3 * sizeof(spectrum_scalar_t<S>) + sizeof(std::uint32_t) + 1;
 
 /// G(s) w(s) = G(s) / D(s) per segment (0 where no technique could draw it).
@@ -114,7 +116,9 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     const ConditionedInputs<S, decltype(link), decltype(light_pair)> inputs{
         pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags, link, light_pair,
         pool.pieces};
-    stats.lagged_bytes = propagate_conditioned(support, inputs, iterations, radiance, parallel_for).lagged;
+    const ConditionedMemory memory = propagate_conditioned(support, inputs, iterations, radiance, parallel_for);
+    stats.lagged_bytes = memory.lagged;
+    stats.forced_value_bytes = memory.forced_values;
       } else {
     std::vector<std::uint8_t> factorised;
     std::vector<S> diffuse;
@@ -167,6 +171,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
                               std::span<const S>(diffuse), ctx.options.transfer_cache_bytes);
     stats.transfer_cache_bytes = memory.junction_table;
     stats.lagged_bytes = memory.lagged;
+    stats.forced_value_bytes = memory.forced_values;
   }
   geometry.assign(pool.geometry.begin(), pool.geometry.end());
 }
