@@ -7,9 +7,11 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "support/catch.hpp"
@@ -699,9 +701,42 @@ TEST_CASE("EmbreeManifold<double>: a surface closer than Embree's float resoluti
 
 namespace {
 
-/// Queries of both traversals on one description: closest hits from surface points (either
-/// side) and from interior points, and visibility between surface points, free points and
-/// directions. Counts the queries whose answers differ.
+/// The queries the comparisons below run on one description: closest hits from surface points
+/// (either side) and from interior points; visibility between surface points (`pairs`, of
+/// which the comparison counts the hidden ones) and between free points, directions and
+/// surface points (`others`).
+template <class T>
+struct TraversalQueries {
+  std::vector<IntersectQuery<T>> closest;
+  std::vector<std::pair<SurfacePoint<T>, SurfacePoint<T>>> pairs, others;
+};
+
+template <class T>
+TraversalQueries<T> traversal_queries(const EmbreeManifold<T>& m, const Vec3<T>& center, int n, std::uint64_t seed) {
+  Pcg32 rng(seed, 4);
+  TraversalQueries<T> q;
+  for (int i = 0; i < n; ++i) {
+    const auto a = m.sample_area({rng.uniform2<T>()});
+    const auto b = m.sample_area({rng.uniform2<T>()});
+    REQUIRE(a);
+    REQUIRE(b);
+    const T side = i % 2 ? T(1) : T(-1);
+    const Vec3<T> inner = center + T(0.95) * (T(2) * Vec3<T>(rng.uniform<T>(), rng.uniform<T>(), rng.uniform<T>()) - T(1));
+    for (const Vec3<T>& o : {a->point.position, inner}) {
+      const Vec3<T> d = o == inner ? square_to_uniform_sphere(rng.uniform2<T>()) : cosine_direction<T>(side * a->point.normal, rng);
+      q.closest.push_back({Ray<T>{o, d}, i % 3 ? std::numeric_limits<T>::infinity() : T(0.5)});
+    }
+    q.pairs.emplace_back(a->point, b->point);
+    const auto sky = SurfacePoint<T>{square_to_uniform_sphere(rng.uniform2<T>()), {0, 0, 1}, {0, 0, 1}, invalid_id, invalid_id,
+                                     PointKind::direction};
+    const auto free_point = SurfacePoint<T>::at_point(inner + T(3) * square_to_uniform_sphere(rng.uniform2<T>()));
+    q.others.emplace_back(free_point, sky);
+    q.others.emplace_back(a->point, free_point);
+  }
+  return q;
+}
+
+/// The queries of traversal_queries through both traversals. Counts the queries whose answers differ.
 template <class T>
 struct TraversalComparison {
   int different = 0, hits = 0, hidden = 0, shading = 0;
@@ -717,49 +752,37 @@ TraversalComparison<T> compare_traversals(typename EmbreeManifold<T>::Descriptio
   const M direct(desc);
   REQUIRE_FALSE(embree.brute_force());
   REQUIRE(direct.brute_force());
-  Pcg32 rng(seed, 4);
+  const TraversalQueries<T> queries = traversal_queries(embree, center, n, seed);
   TraversalComparison<T> c;
-  for (int i = 0; i < n; ++i) {
-    const auto a = embree.sample_area({rng.uniform2<T>()});
-    const auto b = embree.sample_area({rng.uniform2<T>()});
-    REQUIRE(a);
-    REQUIRE(b);
-    const T side = i % 2 ? T(1) : T(-1);
-    const Vec3<T> inner = center + T(0.95) * (T(2) * Vec3<T>(rng.uniform<T>(), rng.uniform<T>(), rng.uniform<T>()) - T(1));
-    for (const Vec3<T>& o : {a->point.position, inner}) {
-      const Vec3<T> d = o == inner ? square_to_uniform_sphere(rng.uniform2<T>()) : cosine_direction<T>(side * a->point.normal, rng);
-      const T t_max = i % 3 ? std::numeric_limits<T>::infinity() : T(0.5);
-      const auto h1 = embree.intersect({Ray<T>{o, d}, t_max});
-      const auto h2 = direct.intersect({Ray<T>{o, d}, t_max});
-      if (bool(h1) != bool(h2)) {
-        ++c.different;
-        continue;
-      }
-      if (!h1) continue;
-      ++c.hits;
-      // Both compute t and the point in double from the same plane or sphere, but in different
-      // orders (and a build with multiply-add contraction may fuse one and not the other):
-      // near-grazing rays differ by ulps of double over |cos|.
-      if (h1->point.primitive_id != h2->point.primitive_id || !close(h1->distance, h2->distance, T(1e-5)) ||
-          !close(h1->point.position, h2->point.position, T(1e-5)) || !close(h1->point.normal, h2->point.normal, T(1e-5)) ||
-          h1->point.material_id != h2->point.material_id)
-        ++c.different;
-      c.shading += close(h1->point.shading_normal, h2->point.shading_normal, T(1e-5)) ? 0 : 1;
+  for (const IntersectQuery<T>& q : queries.closest) {
+    const auto h1 = embree.intersect(q);
+    const auto h2 = direct.intersect(q);
+    if (bool(h1) != bool(h2)) {
+      ++c.different;
+      continue;
     }
-    const bool v1 = embree.visible({a->point, b->point});
-    c.different += v1 != direct.visible({a->point, b->point}) ? 1 : 0;
-    c.hidden += v1 ? 0 : 1;
-    const auto sky = SurfacePoint<T>{square_to_uniform_sphere(rng.uniform2<T>()), {0, 0, 1}, {0, 0, 1}, invalid_id, invalid_id,
-                                     PointKind::direction};
-    const auto free_point = SurfacePoint<T>::at_point(inner + T(3) * square_to_uniform_sphere(rng.uniform2<T>()));
-    c.different += embree.visible({free_point, sky}) != direct.visible({free_point, sky}) ? 1 : 0;
-    c.different += embree.visible({a->point, free_point}) != direct.visible({a->point, free_point}) ? 1 : 0;
+    if (!h1) continue;
+    ++c.hits;
+    // Both compute t and the point in double from the same plane or sphere, but in different
+    // orders (and a build with multiply-add contraction may fuse one and not the other):
+    // near-grazing rays differ by ulps of double over |cos|.
+    if (h1->point.primitive_id != h2->point.primitive_id || !close(h1->distance, h2->distance, T(1e-5)) ||
+        !close(h1->point.position, h2->point.position, T(1e-5)) || !close(h1->point.normal, h2->point.normal, T(1e-5)) ||
+        h1->point.material_id != h2->point.material_id)
+      ++c.different;
+    c.shading += close(h1->point.shading_normal, h2->point.shading_normal, T(1e-5)) ? 0 : 1;
   }
+  for (const auto& [from, to] : queries.pairs) {
+    const bool v1 = embree.visible({from, to});
+    c.different += v1 != direct.visible({from, to}) ? 1 : 0;
+    c.hidden += v1 ? 0 : 1;
+  }
+  for (const auto& [from, to] : queries.others) c.different += embree.visible({from, to}) != direct.visible({from, to}) ? 1 : 0;
   return c;
 }
 
 #ifdef SEGPATH_BRUTE_FORCE_DISPATCH
-/// The queries of compare_traversals through the direct traversal's AVX2 variant and the
+/// The queries of traversal_queries through the direct traversal's AVX2 variant and the
 /// build's own (brute_force.hpp): the number of answers that differ in any bit.
 template <class T>
 int compare_variants(typename EmbreeManifold<T>::Description desc, const Vec3<T>& center, int n, std::uint64_t seed) {
@@ -779,23 +802,15 @@ int compare_variants(typename EmbreeManifold<T>::Description desc, const Vec3<T>
     return !a || (a->distance == b->distance && a->point.position == b->point.position &&
                   a->point.primitive_id == b->point.primitive_id && a->point.shading_normal == b->point.shading_normal);
   };
-  Pcg32 rng(seed, 5);
+  const TraversalQueries<T> queries = traversal_queries(direct, center, n, seed);
   int different = 0;
-  for (int i = 0; i < n; ++i) {
-    const auto a = direct.sample_area({rng.uniform2<T>()});
-    const auto b = direct.sample_area({rng.uniform2<T>()});
-    REQUIRE(a);
-    REQUIRE(b);
-    const Vec3<T> inner = center + T(0.95) * (T(2) * Vec3<T>(rng.uniform<T>(), rng.uniform<T>(), rng.uniform<T>()) - T(1));
-    for (const Vec3<T>& o : {a->point.position, inner}) {
-      const Vec3<T> d = o == inner ? square_to_uniform_sphere(rng.uniform2<T>())
-                                   : cosine_direction<T>((i % 2 ? T(1) : T(-1)) * a->point.normal, rng);
-      const IntersectQuery<T> q{Ray<T>{o, d}, i % 3 ? std::numeric_limits<T>::infinity() : T(0.5)};
-      different += same_hit(run(0, [&] { return direct.intersect(q); }), run(1, [&] { return direct.intersect(q); })) ? 0 : 1;
+  for (const IntersectQuery<T>& q : queries.closest)
+    different += same_hit(run(0, [&] { return direct.intersect(q); }), run(1, [&] { return direct.intersect(q); })) ? 0 : 1;
+  for (const auto* list : {&queries.pairs, &queries.others})
+    for (const auto& ends : *list) {
+      const VisibilityQuery<T> v{ends.first, ends.second};
+      different += run(0, [&] { return direct.visible(v); }) != run(1, [&] { return direct.visible(v); }) ? 1 : 0;
     }
-    const VisibilityQuery<T> v{a->point, b->point};
-    different += run(0, [&] { return direct.visible(v); }) != run(1, [&] { return direct.visible(v); }) ? 1 : 0;
-  }
   return different;
 }
 #endif
