@@ -394,6 +394,17 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
     CHECK(memory.lagged >= rings + watches * 10);
     CHECK(memory.lagged <= rings + watches * 20);
     CHECK(memory.junction_table == 0);
+    // U is kept only for the starts a junction can force (light technique samples with
+    // D_lt > 0) and for their ending slots, plus one shared zero in each list.
+    std::size_t forced_starts = 0, forced_slots = 0;
+    for (std::uint32_t s = 0; s < p.n; ++s) {
+      if (!((p.flags[s] & conditioned_light_born) && (p.flags[s] & conditioned_light_technique) && p.light_technique[s] > 0)) continue;
+      const bool starts = disk || (hood.clustering.cluster_of_x(s) != no_cluster);
+      const bool ends = (disk ? hood.junctions.ending_slot_of(s) : hood.clustering.ending_slot_of(s)) != no_cluster;
+      forced_starts += starts ? 1 : 0;
+      forced_slots += starts && ends ? 1 : 0;
+    }
+    CHECK(memory.forced_values == (forced_starts + forced_slots + 2) * sizeof(std::array<double, 2>));
     for (std::uint32_t s = 0; s < p.n; ++s) {
       const double reference = naive(p, s, depth, near_of, [&](std::uint32_t q) { return kernel[q]; }, pieces);
       CHECK(result[s] == Approx(reference).epsilon(1e-10).margin(1e-12));

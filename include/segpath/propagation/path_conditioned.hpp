@@ -334,7 +334,7 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
 
 }  // namespace detail
 
-/// What propagate_conditioned allocated besides its O(#segments) arrays, in bytes.
+/// What propagate_conditioned allocated besides the arrays it keeps for every segment, in bytes.
 struct ConditionedMemory {
   std::size_t junction_table = 0;  ///< the ConditionedJunction table (junction_cache_bytes at most)
   std::size_t lagged = 0;          ///< the lagged values of chains and their watches: 0 without chains
@@ -364,7 +364,8 @@ struct ConditionedMemory {
 /// `junction_cache_bytes`: the general groups whose ConditionedJunction table (a PairTable, one
 /// sizeof(detail::ConditionedJunction<S>) per pair) fits in this budget, in group order, call
 /// link and light_pair once per pair for the whole propagation instead of once per pair and
-/// iteration. The result is the same. Returns the bytes the table and the lagged values took.
+/// iteration. The result is the same. Returns the bytes the table, the lagged values and the U
+/// values of the segments a junction can force took.
 template <JunctionSupport J, Spectrum S, class Link, class LightPair, ParallelFor P = SerialFor>
 ConditionedMemory propagate_conditioned(const J& support, const ConditionedInputs<S, Link, LightPair>& in, int iterations,
                                   std::vector<S>& weighted, const P& parallel_for = {},
@@ -520,7 +521,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     for_blocks(record.size(), parallel_for, [&](std::size_t r) {
       const detail::ConditionedStart<T>& st = start[r];
       const std::uint32_t i = st.source;
-      const bool forceable = st.forced_weight > T(0);
+      const bool forceable = record_u[r] != 0;  // forced_weight > 0
       const int b = depth == 1 ? k : k + 1 - int(st.pieces);
       auto gather = [&](const ConditionedValues<S>& v) {
         starting_w[r] = v.w;
@@ -554,8 +555,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
               const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
               const Pair& w = starting_w[record(j)];
               for (int e = 0; e < 2; ++e) sum[k_class].w[e] += w[e] * st.geometry;
-              if (st.forced_weight > T(0)) {
-                const Pair& u = starting_u[record_u[record(j)]];
+              if (const std::uint32_t iu = record_u[record(j)]; iu != 0) {  // forced_weight > 0
+                const Pair& u = starting_u[iu];
                 for (int e = 0; e < 2; ++e) sum[k_class].u[e] += u[e] * (st.geometry * st.forced_weight);
               }
             }
