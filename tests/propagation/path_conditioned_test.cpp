@@ -440,33 +440,3 @@ TEST_CASE("the compact emission of a slot is conditioned_emission bit for bit, a
       }
   CHECK(differ == 0);
 }
-
-TEST_CASE("where needs_light_pair is false, a junction is the same bit for bit whatever q_l, also at degenerate D_l",
-          "[propagation]") {
-  using T = float;
-  using S = Rgb<float>;
-  const T inf = std::numeric_limits<T>::infinity(), nan = std::numeric_limits<T>::quiet_NaN();
-  const std::vector<T> lights = {0.f, -0.f, 0.5f, 2.f, 1e-40f, inf, nan, -1.f};
-  const std::vector<T> rests = {0.f, 1.f, inf};
-  const std::vector<T> qls = {0.f, 0.25f, 3.f, 1e30f};
-  std::size_t skipped = 0, differ = 0;
-  for (const T light : lights)
-    for (const T rest : rests)
-      for (const std::uint32_t terms : {0u, 1u, 2u})
-        for (const std::uint8_t end_flags : {std::uint8_t(0), conditioned_light_born})
-          for (std::uint8_t fp = 0; fp < 8; ++fp) {
-            const detail::ConditionedEnd<T> end{light, rest, terms, end_flags};
-            if (detail::needs_light_pair(end, fp)) continue;
-            ++skipped;
-            const detail::ConditionedJunction<S> without = detail::conditioned_coefficients(end, fp, T(0.5), S(2.f), T(0));
-            for (const T ql : qls) {
-              const detail::ConditionedJunction<S> with = detail::conditioned_coefficients(end, fp, T(0.5), S(2.f), ql);
-              differ += std::memcmp(&without.transfer, &with.transfer, sizeof with.transfer) != 0 ||
-                                std::memcmp(&without.r, &with.r, sizeof with.r) != 0 || without.code != with.code
-                            ? 1
-                            : 0;
-            }
-          }
-  CHECK(skipped > 100);
-  CHECK(differ == 0);
-}

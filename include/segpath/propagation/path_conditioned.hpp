@@ -73,6 +73,7 @@
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/spectrum.hpp"
 #include "segpath/propagation/clustering.hpp"
+#include "segpath/propagation/conditioned_junction.hpp"
 #include "segpath/propagation/disk_junctions.hpp"
 #include "segpath/propagation/junction_support.hpp"
 #include "segpath/propagation/pair_table.hpp"
@@ -91,11 +92,6 @@
 #include <vector>
 
 namespace segpath {
-
-/// Per-segment side flags of the path-conditioned weighting.
-inline constexpr std::uint8_t conditioned_light_born = 1;       ///< drawn by a light-side technique
-inline constexpr std::uint8_t conditioned_light_technique = 2;  ///< a light predecessor draw was attempted from x
-inline constexpr std::uint8_t conditioned_potential = 4;        ///< x could be a light technique point (implied by 2)
 
 /// What the path-conditioned propagation needs of a pool, per segment s:
 ///  - emitted[s] L_e(s), geometry[s] G(s);
@@ -125,13 +121,6 @@ struct ConditionedInputs {
   /// p(s): the segments s stands for (a chain through delta bounces); empty: all 1
   /// (propagation/segment_budget.hpp).
   std::span<const std::uint16_t> pieces = {};
-};
-
-/// The four suffix sums of a segment (see the header comment).
-template <Spectrum S>
-struct ConditionedValues {
-  std::array<S, 2> u{S(spectrum_scalar_t<S>(0)), S(spectrum_scalar_t<S>(0))};
-  std::array<S, 2> w{S(spectrum_scalar_t<S>(0)), S(spectrum_scalar_t<S>(0))};
 };
 
 namespace detail {
@@ -198,138 +187,11 @@ spectrum_scalar_t<S> conditioned_forced_weight(const ConditionedInputs<S, Link, 
              : T(0);
 }
 
-/// What a junction reads of its ending segment s, gathered once per pool.
-template <Real T>
-struct ConditionedEnd {
-  T light = 0, rest = 0;  ///< D_l(s), D(s) - D_l(s)
-  std::uint32_t terms = 0;
-  std::uint8_t flags = 0;
-};
-
+/// What a junction reads of the ending segment s (ConditionedEnd).
 template <Spectrum S, class Link, class LightPair>
 ConditionedEnd<spectrum_scalar_t<S>> conditioned_end(const ConditionedInputs<S, Link, LightPair>& in, std::size_t s) noexcept {
   using T = spectrum_scalar_t<S>;
   return {in.light_density[s], std::max(T(0), in.density[s] - in.light_density[s]), in.light_terms[s], in.flags[s]};
-}
-
-/// What a junction reads of its starting segment s', gathered once per pool.
-template <Real T>
-struct ConditionedStart {
-  T geometry = 0, forced_weight = 0;
-  std::uint32_t source = no_cluster;  ///< the ending slot s''s values are read from (no_cluster: emission only)
-  std::uint16_t pieces = 1;           ///< p(s') (segment_budget.hpp)
-  std::uint8_t flags = 0;
-};
-
-/// A junction s -> s' reduced to what a sweep needs: it adds, for e' in {0, 1},
-///   c = transfer * (read_u ? U_e'(s') : W_e'(s'))   to U_state[e'](s) and c r[e'] to W_state[e'](s).
-/// Everything in it is fixed for the whole propagation, so it can be built once per pair.
-template <Spectrum S>
-struct ConditionedJunction {
-  S transfer;  ///< K f_r(s, s') G(s'), times 1 / D_lt(s') where s forces s'
-  std::array<spectrum_scalar_t<S>, 2> r;  ///< the r of s in the state reached from e(s') = 0, 1
-  std::uint8_t code;  ///< bit 0: s forces s' (read U); bits 1, 2: the state e(s) reached from e(s') = 0, 1
-};
-
-/// The three junctions of an ending slot of a factorised group, one per flag class of s'
-/// (propagate_conditioned), in 40 bytes (float) instead of 72: their transfer is the same.
-template <Spectrum S>
-struct ClassJunctions {
-  S transfer;
-  std::array<std::array<spectrum_scalar_t<S>, 2>, 3> r;
-  std::array<std::uint8_t, 3> code;
-
-  [[nodiscard]] ConditionedJunction<S> operator[](int k) const noexcept { return {transfer, r[k], code[k]}; }
-  void set(int k, const ConditionedJunction<S>& j) noexcept { transfer = j.transfer, r[k] = j.r, code[k] = j.code; }
-};
-
-/// The junction s -> s' (transfer = K f_r(s, s') G(s')) for s' with flags fp and 1 / D_lt(s')
-/// (where read forced) and q_l(s | s') = ql: the r_i and e(s) rules of the header comment.
-template <Spectrum S>
-SEGPATH_FORCE_INLINE ConditionedJunction<S> conditioned_coefficients(const ConditionedEnd<spectrum_scalar_t<S>>& end, std::uint8_t fp,
-                                                                     spectrum_scalar_t<S> forced_weight, const S& transfer,
-                                                                     spectrum_scalar_t<S> ql) noexcept {
-  using T = spectrum_scalar_t<S>;
-  const bool light_born = end.flags & conditioned_light_born;
-  const bool successor_technique = fp & conditioned_light_technique;
-  if (!(fp & conditioned_potential)) ql = T(0);
-  const bool excluded = successor_technique && ql > T(0);
-  const std::uint32_t terms = end.terms - (excluded && end.terms > 0 ? 1u : 0u);
-  const T dl = end.light;
-  const T dl_other = terms > 0 ? std::max(T(0), dl - (excluded ? ql : T(0))) : T(0);
-  const bool forced = light_born && terms == 0;
-  const T lambda = dl_other > T(0) ? dl_other : ql;  // Lambda of the header comment
-  ConditionedJunction<S> j{forced ? transfer * forced_weight : transfer, {}, std::uint8_t(forced ? 1 : 0)};
-  for (int e_next = 0; e_next < 2; ++e_next) {
-    const int e = (terms > 0 || (ql > T(0) && e_next == 1)) ? 1 : 0;
-    const T g = end.rest + (e ? lambda : T(0));
-    T r = T(0);
-    if (light_born) {
-      if (e && g > T(0) && dl > T(0)) r = lambda / (g * dl);
-    } else if (g > T(0)) {
-      r = T(1) / g;
-    }
-    j.r[e_next] = r;
-    j.code |= std::uint8_t(e << (1 + e_next));
-  }
-  return j;
-}
-
-/// Whether conditioned_coefficients reads q_l(s | s') for this end and a start with flags fp:
-/// only where s' is a potential light technique, and then only if s' is a light technique
-/// sample (its term leaves D_l(s)) or D_l(s) has no positive value (Lambda and e(s) fall back
-/// on q_l). Elsewhere passing 0 gives the same junction, so the density need not be evaluated.
-template <Real T>
-[[nodiscard]] constexpr bool needs_light_pair(const ConditionedEnd<T>& end, std::uint8_t fp) noexcept {
-  return (fp & conditioned_potential) && ((fp & conditioned_light_technique) || end.terms == 0 || !(end.light > T(0)));
-}
-
-/// The values of s' that junction j reads: U where s forces s' (j.code & 1), else W.
-template <Spectrum S, class Pair>
-[[nodiscard]] SEGPATH_FORCE_INLINE const Pair& read_successor(const ConditionedJunction<S>& j, const Pair& u,
-                                                              const Pair& w) noexcept {
-  return (j.code & 1) ? u : w;
-}
-
-/// Adds a junction to s's values `acc`, reading `v`, the values of s' of the previous iteration
-/// that read_successor selects. Linear in `v`: a factorised cluster passes sums over
-/// successors of one flag class.
-template <Spectrum S>
-SEGPATH_FORCE_INLINE void apply_junction(const S& transfer, const std::array<spectrum_scalar_t<S>, 2>& r, std::uint8_t code,
-                                         const std::array<S, 2>& v, ConditionedValues<S>& acc) noexcept {
-  const S c0 = transfer * v[0], c1 = transfer * v[1];
-  // e(s) from e(s') = 0 is at most e(s) from e(s') = 1, so three cases; constant indices keep
-  // acc in registers (an indexed acc would chain every pair through memory).
-  switch (code >> 1) {
-    case 0:  // both to e(s) = 0
-      acc.u[0] += c0 + c1;
-      acc.w[0] += c0 * r[0] + c1 * r[1];
-      break;
-    case 2:  // e(s') = 0 to e(s) = 0, e(s') = 1 to e(s) = 1
-      acc.u[0] += c0;
-      acc.w[0] += c0 * r[0];
-      acc.u[1] += c1;
-      acc.w[1] += c1 * r[1];
-      break;
-    default:  // 3: both to e(s) = 1
-      acc.u[1] += c0 + c1;
-      acc.w[1] += c0 * r[0] + c1 * r[1];
-      break;
-  }
-}
-template <Spectrum S>
-SEGPATH_FORCE_INLINE void apply_junction(const ConditionedJunction<S>& j, const std::array<S, 2>& v,
-                                         ConditionedValues<S>& acc) noexcept {
-  apply_junction(j.transfer, j.r, j.code, v, acc);
-}
-
-/// Adds the junction s -> s' to s's values (conditioned_coefficients, then apply_junction).
-template <Spectrum S>
-SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_scalar_t<S>>& end, std::uint8_t fp,
-                                               spectrum_scalar_t<S> forced_weight, const S& transfer, spectrum_scalar_t<S> ql,
-                                               const ConditionedValues<S>& next, ConditionedValues<S>& acc) noexcept {
-  const ConditionedJunction<S> j = conditioned_coefficients(end, fp, forced_weight, transfer, ql);
-  apply_junction(j, read_successor(j, next.u, next.w), acc);
 }
 
 }  // namespace detail
