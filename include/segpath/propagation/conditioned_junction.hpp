@@ -62,7 +62,6 @@ struct ClassJunctions {
   std::array<std::array<spectrum_scalar_t<S>, 2>, 3> r;
   std::array<std::uint8_t, 3> code;
 
-  [[nodiscard]] ConditionedJunction<S> operator[](int k) const noexcept { return {transfer, r[k], code[k]}; }
   void set(int k, const ConditionedJunction<S>& j) noexcept { transfer = j.transfer, r[k] = j.r, code[k] = j.code; }
 };
 
@@ -107,11 +106,10 @@ template <Real T>
   return (fp & conditioned_potential) && ((fp & conditioned_light_technique) || end.terms == 0 || !(end.light > T(0)));
 }
 
-/// The values of s' that junction j reads: U where s forces s' (j.code & 1), else W.
-template <Spectrum S, class Pair>
-[[nodiscard]] SEGPATH_FORCE_INLINE const Pair& read_successor(const ConditionedJunction<S>& j, const Pair& u,
-                                                              const Pair& w) noexcept {
-  return (j.code & 1) ? u : w;
+/// The values of s' that a junction with `code` reads: U where s forces s' (code & 1), else W.
+template <class Pair>
+[[nodiscard]] SEGPATH_FORCE_INLINE const Pair& read_successor(std::uint8_t code, const Pair& u, const Pair& w) noexcept {
+  return (code & 1) ? u : w;
 }
 
 /// Adds a junction to s's values `acc`, reading `v`, the values of s' of the previous iteration
@@ -152,7 +150,7 @@ SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_sca
                                                spectrum_scalar_t<S> forced_weight, const S& transfer, spectrum_scalar_t<S> ql,
                                                const ConditionedValues<S>& next, ConditionedValues<S>& acc) noexcept {
   const ConditionedJunction<S> j = conditioned_coefficients(end, fp, forced_weight, transfer, ql);
-  apply_junction(j, read_successor(j, next.u, next.w), acc);
+  apply_junction(j, read_successor(j.code, next.u, next.w), acc);
 }
 
 }  // namespace detail

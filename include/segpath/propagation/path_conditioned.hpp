@@ -344,8 +344,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     }
     return detail::conditioned_coefficients(end[i], st.flags, st.forced_weight, S(f * (kernel * st.geometry)), ql);
   };
-  // What junction j reads of starting slot j's record r: U where it forces the start
-  // (read_successor), indexed only then.
+  // What junction j reads of starting slot j's record r: U where it forces the start, as
+  // read_successor, but record_u read only then (an argument would be read for every junction).
   auto read = [&](const Junction& j, std::uint32_t r) -> const Pair& {
     return (j.code & 1) ? starting_u[record_u[r]] : starting_w[r];
   };
@@ -432,7 +432,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
             const detail::ClassJunctions<S>& junctions = class_junction[class_offset[g] + (i - ending.begin)];
             for (int k_class = 0; k_class < 3; ++k_class) {
               const std::uint8_t code = junctions.code[k_class];
-              detail::apply_junction(junctions.transfer, junctions.r[k_class], code, (code & 1) ? sum[k_class].u : sum[k_class].w, acc);
+              detail::apply_junction(junctions.transfer, junctions.r[k_class], code,
+                                     detail::read_successor(code, sum[k_class].u, sum[k_class].w), acc);
             }
             store(i, acc);
           };
