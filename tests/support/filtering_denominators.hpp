@@ -226,7 +226,6 @@ void check_light_side(const Filter& filter, const Scn& scene, const typename Fil
       }
     CHECK(double(side.density[s]) == Approx(dl).epsilon(tolerance).margin(1e-300));
     CHECK(side.terms[s] == terms);
-    CHECK(double(side.technique_density[s]) == Approx(dl).epsilon(tolerance).margin(1e-300));
   }
 }
 

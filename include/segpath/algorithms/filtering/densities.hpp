@@ -154,7 +154,7 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
           }
         }
         light_sum[sp] = scale * sum;
-        if (side) side->density[sp] += light_sum[sp], side->technique_density[sp] += light_sum[sp];
+        if (side) side->density[sp] += light_sum[sp];
       }
     }
   });

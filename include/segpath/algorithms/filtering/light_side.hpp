@@ -21,11 +21,12 @@ inline constexpr std::uint16_t not_light_born = camera_born | bridge_segment | e
 
 /// What the path-conditioned weighting needs besides D(s): the light side D_l(s) of the
 /// denominator (light start and light technique samples), its number of positive terms, and
-/// the side flags (conditioned_*).
+/// the side flags (conditioned_*). D_lt = D_l (propagation/path_conditioned.hpp): light paths
+/// have no depth limit, so every segment a light technique draws tries a predecessor in turn.
 template <Real T>
 struct LightSide {
-  std::vector<T> density, technique_density;  ///< D_l, D_lt (propagation/path_conditioned.hpp)
-  std::vector<std::uint32_t> terms;           ///< positive terms of D_l
+  std::vector<T> density;            ///< D_l, also D_lt
+  std::vector<std::uint32_t> terms;  ///< positive terms of D_l
   std::vector<std::uint8_t> flags;
 };
 /// q_l(s | s'), the one pair density of the weighting: the density with which a light
@@ -55,7 +56,6 @@ void light_side_start(const Context<Scn>& ctx, LightSide<typename Scn::Scalar>& 
   const auto& pool = ctx.pool;
   const std::uint64_t light_paths = ctx.light_paths();
   side.density.assign(pool.size(), T(0));
-  side.technique_density.assign(pool.size(), T(0));
   side.terms.assign(pool.size(), 0);
   side.flags.assign(pool.size(), 0);
   parallel_for(pool.size(), [&](std::size_t i) {
@@ -71,18 +71,15 @@ void light_side_start(const Context<Scn>& ctx, LightSide<typename Scn::Scalar>& 
     if (!(std::isfinite(d) && d > T(0))) return;
     side.density[i] = d;
     side.terms[i] = 1;
-    side.technique_density[i] = d;  // light paths have no depth limit: D_lt = D_l
   });
 }
 
-/// One light technique sample's term of D_l(s), and of D_lt(s) = D_l(s) (light paths have no
-/// depth limit, so every segment a light technique draws tries a predecessor in turn).
+/// One light technique sample's term of D_l(s) (= D_lt(s)).
 template <Real T>
 void add_light_term(LightSide<T>& side, std::uint32_t s, T ql) noexcept {
   if (!(ql > T(0))) return;
   side.density[s] += ql;
   side.terms[s] += 1;
-  side.technique_density[s] += ql;
 }
 
 /// The light side of every denominator, disk support.

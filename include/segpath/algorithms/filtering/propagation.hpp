@@ -32,7 +32,7 @@ template <Spectrum S>
 inline constexpr std::size_t conditioned_bytes_per_segment =
     2 * sizeof(std::array<S, 2>) + sizeof(detail::ConditionedEmission<S>) + sizeof(detail::ConditionedEnd<spectrum_scalar_t<S>>) +
     sizeof(detail::ClassJunctions<S>) + sizeof(detail::ConditionedStart<spectrum_scalar_t<S>>) + 2 * sizeof(std::uint32_t) +
-    3 * sizeof(spectrum_scalar_t<S>) + sizeof(std::uint32_t) + 1;
+    2 * sizeof(spectrum_scalar_t<S>) + sizeof(std::uint32_t) + 1;
 
 /// G(s) w(s) = G(s) / D(s) per segment (0 where no technique could draw it).
 template <Real T, Spectrum S>
@@ -113,8 +113,9 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
       return bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance}) *
              pool.chain[s];
     };
+    // D_lt = D_l (LightSide): side.density serves as both.
     const ConditionedInputs<S, decltype(link), decltype(light_pair)> inputs{
-        pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags, link, light_pair,
+        pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.density, side.flags, link, light_pair,
         pool.pieces};
     const ConditionedMemory memory = propagate_conditioned(support, inputs, iterations, radiance, parallel_for);
     stats.lagged_bytes = memory.lagged;
@@ -161,8 +162,9 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
         return std::isfinite(q) && q > T(0) ? q : T(0);
       }
     };
+    // D_lt = D_l (LightSide): side.density serves as both.
     const ConditionedInputs<S, TransferLink<Scn>, SlotLightPair> slot_inputs{
-        pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.technique_density, side.flags,
+        pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.density, side.flags,
         TransferLink<Scn>{scene.bsdf(), transfer}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale},
         pool.pieces};
     // The junctions of the pairs that fit the cache budget are built once per pool.
