@@ -367,43 +367,40 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
     inputs.pieces = pieces;
     const int depth = 1 + int(rng.next_u32() % 4);
     std::vector<double> result;
-    // The lagged values it reports: one ring of p values per ending slot of a chain of p > 1,
-    // its watch (10 bytes, twice with the growth of its lists) and a watch index per ending slot
-    // and per start record.
-    std::size_t ring_values = 0, watches = 0, ending_slots = 0;
-    const auto count_rings = [&](const auto& ending) {
-      for (const std::uint32_t s : ending) {
-        ring_values += pieces[s] > 1 ? pieces[s] : 0;
-        watches += pieces[s] > 1;
-        ++ending_slots;
-      }
-    };
     ConditionedMemory memory;
-    std::size_t start_records = 0;  // a watch index per ending slot and per start record
+    std::size_t start_records = 0;
     if (disk) {
       memory = propagate_conditioned(hood.junctions, inputs, depth, result);
-      count_rings(hood.junctions.ending_segments());
       start_records = p.n;
     } else {
       memory = propagate_conditioned(hood.clustering, inputs, depth, result);
-      count_rings(hood.clustering.ending_segments());
       start_records = std::size(hood.clustering.starting_segments());
     }
-    const std::size_t rings =
-        ring_values * sizeof(ConditionedValues<double>) + (watches > 0 ? (ending_slots + start_records) * 4 : 0);
-    CHECK(memory.lagged >= rings + watches * 10);
-    CHECK(memory.lagged <= rings + watches * 20);
     CHECK(memory.junction_table == 0);
     // U is kept only for the starts a junction can force (light technique samples with
     // D_lt > 0) and for their ending slots, plus one shared zero in each list.
     std::size_t forced_starts = 0, forced_slots = 0;
+    // The lagged values it reports: W in one ring of p values per ending slot of a chain of
+    // p > 1, U in one more for each forced start of p > 1 that reads a slot, each ring with its
+    // watch (10 bytes, twice with the growth of its lists), and a watch index per start record
+    // and per forced start (plus one).
+    std::size_t ring_values = 0, watches = 0;
     for (std::uint32_t s = 0; s < p.n; ++s) {
-      if (!((p.flags[s] & conditioned_light_born) && (p.flags[s] & conditioned_light_technique) && p.light_technique[s] > 0)) continue;
       const bool starts = disk || (hood.clustering.cluster_of_x(s) != no_cluster);
       const bool ends = (disk ? hood.junctions.ending_slot_of(s) : hood.clustering.ending_slot_of(s)) != no_cluster;
+      const bool chain = pieces[s] > 1;
+      ring_values += ends && chain ? pieces[s] : 0;
+      watches += ends && chain;
+      if (!((p.flags[s] & conditioned_light_born) && (p.flags[s] & conditioned_light_technique) && p.light_technique[s] > 0)) continue;
       forced_starts += starts ? 1 : 0;
       forced_slots += starts && ends ? 1 : 0;
+      ring_values += starts && ends && chain ? pieces[s] : 0;
+      watches += starts && ends && chain;
     }
+    const std::size_t rings =
+        ring_values * sizeof(std::array<double, 2>) + (watches > 0 ? (start_records + forced_starts + 1) * 4 : 0);
+    CHECK(memory.lagged >= rings + watches * 10);
+    CHECK(memory.lagged <= rings + watches * 20);
     CHECK(memory.forced_values == (forced_starts + forced_slots + 2) * sizeof(std::array<double, 2>));
     for (std::uint32_t s = 0; s < p.n; ++s) {
       const double reference = naive(p, s, depth, near_of, [&](std::uint32_t q) { return kernel[q]; }, pieces);

@@ -279,13 +279,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   }
   // (No slot's U is read before the first sweep has written it: at budget 0 a start reads the emission.)
   std::vector<Pair> current_u(std::size_t(forced_slots) + 1, zero), starting_u(std::size_t(forced_records) + 1, zero);
-  // The values of ending slot i as a sweep left them (U zero where not kept), and storing them.
-  auto values_at = [&](std::uint32_t i) {
-    ConditionedValues<S> v;
-    v.w = current_w[i];
-    if (slot_u[i] != 0) v.u = current_u[slot_u[i]];
-    return v;
-  };
+  // Storing the values of ending slot i (U only where kept).
   auto store = [&](std::uint32_t i, const ConditionedValues<S>& v) {
     current_w[i] = v.w;
     if (slot_u[i] != 0) current_u[slot_u[i]] = v.u;
@@ -365,19 +359,25 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   // source is its own segment's ending slot, so one watch per slot serves both.
   const int depth = detail::max_pieces(in.pieces, n);
   // The watches of starts come first, in record order, so that the gather reads their rings in
-  // order; then those of slots that no start reads (their results only).
-  detail::LaggedValues<ConditionedValues<S>> lagged;
-  std::vector<std::uint32_t> end_watch, start_watch;
+  // order; then those of slots that no start reads (their results only). Every watch keeps W;
+  // U is kept only for the starts a junction can force, in lagged_u (watch u_watch[record_u]).
+  // A watch's p is its slot's segment's (a start's source is its own segment's ending slot).
+  detail::LaggedValues<Pair> lagged_w, lagged_u;
+  std::vector<std::uint32_t> start_watch, u_watch;
   if (depth > 1) {
-    end_watch.assign(ending_slots, detail::no_watch);
     start_watch.assign(record.size(), detail::no_watch);
+    u_watch.assign(std::size_t(forced_records) + 1, detail::no_watch);
+    std::vector<bool> watched(ending_slots, false);
     for (std::size_t r = 0; r < record.size(); ++r)
-      if (const std::uint32_t i = start[r].source; i != no_cluster && start[r].pieces > 1)
-        end_watch[i] = start_watch[r] = lagged.watch(i, start[r].pieces);
+      if (const std::uint32_t i = start[r].source; i != no_cluster && start[r].pieces > 1) {
+        start_watch[r] = lagged_w.watch(i, start[r].pieces);
+        watched[i] = true;
+        if (record_u[r] != 0) u_watch[record_u[r]] = lagged_u.watch(i, start[r].pieces);
+      }
     for (std::size_t i = 0; i < ending_slots; ++i)
-      if (const std::uint16_t p = in.pieces[ending_segment[i]]; p > 1 && end_watch[i] == detail::no_watch)
-        end_watch[i] = lagged.watch(std::uint32_t(i), p);
-    lagged.allocate();
+      if (const std::uint16_t p = in.pieces[ending_segment[i]]; p > 1 && !watched[i]) lagged_w.watch(std::uint32_t(i), p);
+    lagged_w.allocate();
+    lagged_u.allocate();
   }
   for (int k = 0; k < iterations; ++k) {
     for_blocks(record.size(), parallel_for, [&](std::size_t r) {
@@ -401,7 +401,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         starting_w[r] = current_w[i];
         if (forceable) starting_u[record_u[r]] = current_u[slot_u[i]];
       } else {
-        gather(lagged.at(start_watch[r], b));
+        starting_w[r] = lagged_w.at(start_watch[r], b);
+        if (forceable) starting_u[record_u[r]] = lagged_u.at(u_watch[record_u[r]], b);
       }
     });
     detail::for_groups(support, parallel_for, [&](std::size_t g) {
@@ -468,7 +469,10 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         store(i, acc);
       }
     });
-    if (depth > 1) lagged.keep_each(k + 1, values_at, parallel_for);
+    if (depth > 1) {
+      lagged_w.keep(k + 1, std::span<const Pair>(current_w), parallel_for);
+      lagged_u.keep_each(k + 1, [&](std::uint32_t i) -> const Pair& { return current_u[slot_u[i]]; }, parallel_for);
+    }
   }
   // Segments whose y end is in no group keep their emission; each segment's value is over
   // paths of at most iterations + 1 segments, A^(iterations + 1 - p(s)).
@@ -478,13 +482,19 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     const ConditionedValues<S> v = detail::conditioned_emission(in, s);
     weighted[s] = budget_of(s) < 0 ? S(T(0)) : S(v.w[0] + v.w[1]);
   });
+  // A segment of p > 1 pieces reads its value from a ring (its slot's watches all hold the same).
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
-    const int b = budget_of(ending_segment[i]);
-    if (b <= 0) return;  // its emission, or nothing
-    const Pair& w = depth == 1 || end_watch[i] == detail::no_watch ? current_w[i] : lagged.at(end_watch[i], b).w;
-    weighted[ending_segment[i]] = w[0] + w[1];
+    const std::uint32_t s = ending_segment[i];
+    const int b = budget_of(s);
+    if (b <= 0 || (depth > 1 && in.pieces[s] > 1)) return;  // its emission, nothing, or a ring's
+    weighted[s] = current_w[i][0] + current_w[i][1];
   });
-  return ConditionedMemory{table.value_bytes(), lagged.bytes() + (end_watch.capacity() + start_watch.capacity()) * sizeof(std::uint32_t),
+  for (std::uint32_t id = 0; id < lagged_w.watch_count(); ++id) {
+    const std::uint32_t s = ending_segment[lagged_w.slot(id)];
+    if (const int b = budget_of(s); b > 0) weighted[s] = lagged_w.at(id, b)[0] + lagged_w.at(id, b)[1];
+  }
+  return ConditionedMemory{table.value_bytes(),
+                           lagged_w.bytes() + lagged_u.bytes() + (start_watch.capacity() + u_watch.capacity()) * sizeof(std::uint32_t),
                            (current_u.capacity() + starting_u.capacity()) * sizeof(Pair)};
 }
 

@@ -61,6 +61,9 @@ class LaggedValues {
     return values_.capacity() * sizeof(V) + (slot_.capacity() + offset_.capacity()) * sizeof(std::uint32_t) +
            pieces_.capacity() * sizeof(std::uint16_t);
   }
+  [[nodiscard]] std::uint32_t watch_count() const noexcept { return std::uint32_t(slot_.size()); }
+  /// The ending slot watch `id` watches.
+  [[nodiscard]] std::uint32_t slot(std::uint32_t id) const noexcept { return slot_[id]; }
   /// A^(budget) of watch `id`, for budget >= 1 within its last p kept budgets.
   [[nodiscard]] const V& at(std::uint32_t id, int budget) const noexcept {
     return values_[offset_[id] + std::size_t(budget % pieces_[id])];
