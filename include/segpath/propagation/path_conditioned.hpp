@@ -134,6 +134,12 @@ void check_conditioned(const ConditionedInputs<S, Link, LightPair>& in, int iter
     throw std::invalid_argument("segpath::propagate_conditioned: the per-segment inputs differ in size");
 }
 
+/// Frees the vectors' memory (clear() would keep it).
+template <class... V>
+void release(V&... vectors) noexcept {
+  ((vectors = V{}), ...);
+}
+
 /// The values of a segment that ends the chain: L_e(s) in state e = [D_l(s) > 0], W with 1 / D.
 template <Spectrum S, class Link, class LightPair>
 ConditionedValues<S> conditioned_emission(const ConditionedInputs<S, Link, LightPair>& in, std::size_t s) noexcept {
@@ -474,6 +480,15 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
       lagged_u.keep_each(k + 1, [&](std::uint32_t i) -> const Pair& { return current_u[slot_u[i]]; }, parallel_for);
     }
   }
+  const ConditionedMemory memory{
+      table.value_bytes(),
+      lagged_w.bytes() + lagged_u.bytes() + (start_watch.capacity() + u_watch.capacity()) * sizeof(std::uint32_t),
+      (current_u.capacity() + starting_u.capacity()) * sizeof(Pair)};
+  // The propagation's peak is here: what only the sweeps read goes before the result is allocated.
+  table = {};
+  lagged_u = {};
+  detail::release(starting_w, starting_u, current_u, start, end, emission, class_junction, class_offset, slot_u, record_u,
+                  start_watch, u_watch);
   // Segments whose y end is in no group keep their emission; each segment's value is over
   // paths of at most iterations + 1 segments, A^(iterations + 1 - p(s)).
   const auto budget_of = [&](std::size_t s) { return depth == 1 ? iterations : iterations + 1 - int(in.pieces[s]); };
@@ -493,9 +508,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     const std::uint32_t s = ending_segment[lagged_w.slot(id)];
     if (const int b = budget_of(s); b > 0) weighted[s] = lagged_w.at(id, b)[0] + lagged_w.at(id, b)[1];
   }
-  return ConditionedMemory{table.value_bytes(),
-                           lagged_w.bytes() + lagged_u.bytes() + (start_watch.capacity() + u_watch.capacity()) * sizeof(std::uint32_t),
-                           (current_u.capacity() + starting_u.capacity()) * sizeof(Pair)};
+  return memory;
 }
 
 }  // namespace segpath
