@@ -138,9 +138,28 @@ SEGPATH_FORCE_INLINE void apply_junction(const S& transfer, const std::array<spe
       break;
   }
 }
+/// apply_junction into W alone, for an s whose U nothing reads (propagate_conditioned keeps U
+/// only where a junction can force): the same sums as the W of the full form.
 template <Spectrum S>
-SEGPATH_FORCE_INLINE void apply_junction(const ConditionedJunction<S>& j, const std::array<S, 2>& v,
-                                         ConditionedValues<S>& acc) noexcept {
+SEGPATH_FORCE_INLINE void apply_junction(const S& transfer, const std::array<spectrum_scalar_t<S>, 2>& r, std::uint8_t code,
+                                         const std::array<S, 2>& v, std::array<S, 2>& w) noexcept {
+  const S c0 = transfer * v[0], c1 = transfer * v[1];
+  switch (code >> 1) {
+    case 0:
+      w[0] += c0 * r[0] + c1 * r[1];
+      break;
+    case 2:
+      w[0] += c0 * r[0];
+      w[1] += c1 * r[1];
+      break;
+    default:
+      w[1] += c0 * r[0] + c1 * r[1];
+      break;
+  }
+}
+/// Either form (acc: ConditionedValues, or W alone) from a built junction.
+template <Spectrum S, class Acc>
+SEGPATH_FORCE_INLINE void apply_junction(const ConditionedJunction<S>& j, const std::array<S, 2>& v, Acc& acc) noexcept {
   apply_junction(j.transfer, j.r, j.code, v, acc);
 }
 

@@ -431,10 +431,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
             }
             return sum;
           };
-          // Ending slot i's values from the class sums `sum`, stored (not returned: a returned
-          // value went through the stack, figures.md).
-          auto update = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
-            ConditionedValues<S> acc = emission_values(i);
+          // Ending slot i's values from the class sums `sum` into acc (U and W, or W alone).
+          auto add_classes = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum, auto& acc) {
             // Field by field: a ConditionedJunction built from them went through the stack.
             const detail::ClassJunctions<S>& junctions = class_junction[class_offset[g] + (i - ending.begin)];
             for (int k_class = 0; k_class < 3; ++k_class) {
@@ -442,7 +440,18 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
               detail::apply_junction(junctions.transfer, junctions.r[k_class], code,
                                      detail::read_successor(code, sum[k_class].u, sum[k_class].w), acc);
             }
-            store(i, acc);
+          };
+          // Stored, not returned: a returned value went through the stack (figures.md).
+          auto update = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
+            if (slot_u[i] != 0) {
+              ConditionedValues<S> acc = emission_values(i);
+              add_classes(i, sum, acc);
+              store(i, acc);
+            } else {
+              Pair acc = emission_values(i).w;
+              add_classes(i, sum, acc);
+              current_w[i] = acc;
+            }
           };
           const std::array<ConditionedValues<S>, 3> all = class_sums(no_cluster);
           for (std::uint32_t i = ending.begin; i < ending.end; ++i) update(i, all);
@@ -454,8 +463,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         }
       }
       const T kernel = support.kernel(g);
-      for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
-        ConditionedValues<S> acc = emission_values(i);
+      // Ending slot i's junctions into acc (U and W, or W alone where no junction reads its U).
+      auto add_row = [&](std::uint32_t i, auto& acc) {
         if (const Junction* row = table.row(i, starting.begin)) {
           // Only a light-born s forces a start (conditioned_coefficients): the other rows read W.
           if (end[i].flags & conditioned_light_born) {
@@ -472,7 +481,17 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
               detail::apply_junction(jn, read(jn, record(j)), acc);
             }
         }
-        store(i, acc);
+      };
+      for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
+        if (slot_u[i] != 0) {
+          ConditionedValues<S> acc = emission_values(i);
+          add_row(i, acc);
+          store(i, acc);
+        } else {
+          Pair acc = emission_values(i).w;
+          add_row(i, acc);
+          current_w[i] = acc;
+        }
       }
     });
     if (depth > 1) {
