@@ -381,7 +381,8 @@ int main(int argc, char** argv) {
   mallopt(M_TRIM_THRESHOLD, -1);
   // One heap for every thread: what the worker threads free (their path records) is then
   // reused by the pool and propagation arrays allocated next (docs/guide.md, "Performance").
-  mallopt(M_ARENA_MAX, 1);
+  // A MALLOC_ARENA_MAX of the user's is left alone.
+  if (std::getenv("MALLOC_ARENA_MAX") == nullptr) mallopt(M_ARENA_MAX, 1);
   const Options options = parse(argc, argv);
   const Room room(options.width, options.height);
   const unsigned threads = options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());

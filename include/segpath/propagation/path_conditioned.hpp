@@ -361,8 +361,9 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
       [&](std::size_t g, std::uint32_t i, std::uint32_t j) { return joins(i, j) ? junction(i, j, support.kernel(g)) : Junction{}; },
       parallel_for);
   // Budgets (segment_budget.hpp): sweep k computes A^(k + 1); a start of p pieces reads
-  // A^(k + 1 - p), which `lagged` keeps for p > 1 (as for the results of chains). A start's
-  // source is its own segment's ending slot, so one watch per slot serves both.
+  // A^(k + 1 - p), which lagged_w (W) and lagged_u (U, forceable starts only) keep for p > 1
+  // (as for the results of chains). A start's source is its own segment's ending slot, and a
+  // segment has one start record at most, so one watch per slot serves both.
   const int depth = detail::max_pieces(in.pieces, n);
   // The watches of starts come first, in record order, so that the gather reads their rings in
   // order; then those of slots that no start reads (their results only). Every watch keeps W;
@@ -516,17 +517,17 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     const ConditionedValues<S> v = detail::conditioned_emission(in, s);
     weighted[s] = budget_of(s) < 0 ? S(T(0)) : S(v.w[0] + v.w[1]);
   });
-  // A segment of p > 1 pieces reads its value from a ring (its slot's watches all hold the same).
+  // A segment of p > 1 pieces reads its value from its slot's ring (one watch per slot).
   for_blocks(ending_slots, parallel_for, [&](std::size_t i) {
     const std::uint32_t s = ending_segment[i];
     const int b = budget_of(s);
     if (b <= 0 || (depth > 1 && in.pieces[s] > 1)) return;  // its emission, nothing, or a ring's
     weighted[s] = current_w[i][0] + current_w[i][1];
   });
-  for (std::uint32_t id = 0; id < lagged_w.watch_count(); ++id) {
-    const std::uint32_t s = ending_segment[lagged_w.slot(id)];
-    if (const int b = budget_of(s); b > 0) weighted[s] = lagged_w.at(id, b)[0] + lagged_w.at(id, b)[1];
-  }
+  for_blocks(lagged_w.watch_count(), parallel_for, [&](std::size_t id) {
+    const std::uint32_t s = ending_segment[lagged_w.slot(std::uint32_t(id))];
+    if (const int b = budget_of(s); b > 0) weighted[s] = lagged_w.at(std::uint32_t(id), b)[0] + lagged_w.at(std::uint32_t(id), b)[1];
+  });
   return memory;
 }
 

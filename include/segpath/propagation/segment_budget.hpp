@@ -7,8 +7,8 @@
 // and the value of s over paths of at most B segments is A^(B - p(s))(s). The lag sits on the
 // start s', whose value propagation gathers once per sweep anyway, so the group sums (and
 // their factorisation) are unchanged. What it costs: for each start (and each result) of a
-// chain, p values of its source slot (LaggedValues), so memory grows with the chains (the
-// path-conditioned propagation adds a watch index per slot and start where there are any).
+// chain, p values of its source slot (LaggedValues), so memory grows with the chains (with a
+// watch index per start record, and per slot in propagate.hpp, where there are any).
 #pragma once
 
 #include "segpath/core/parallel.hpp"
