@@ -526,7 +526,10 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   });
   for_blocks(lagged_w.watch_count(), parallel_for, [&](std::size_t id) {
     const std::uint32_t s = ending_segment[lagged_w.slot(std::uint32_t(id))];
-    if (const int b = budget_of(s); b > 0) weighted[s] = lagged_w.at(std::uint32_t(id), b)[0] + lagged_w.at(std::uint32_t(id), b)[1];
+    if (const int b = budget_of(s); b > 0) {
+      const Pair& w = lagged_w.at(std::uint32_t(id), b);
+      weighted[s] = w[0] + w[1];
+    }
   });
   return memory;
 }
