@@ -54,6 +54,10 @@ struct ConditionedJunction {
   std::uint8_t code;  ///< bit 0: s forces s' (read U); bits 1, 2: the state e(s) reached from e(s') = 0, 1
 };
 
+/// The code of a table entry whose pair is no junction (s' is s, or carries no weight):
+/// conditioned_coefficients never gives it.
+inline constexpr std::uint8_t no_junction = 0xff;
+
 /// The three junctions of an ending slot of a factorised group, one per flag class of s'
 /// (propagate_conditioned), in 40 bytes (float) instead of 72: their transfer is the same.
 template <Spectrum S>

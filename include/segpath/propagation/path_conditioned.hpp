@@ -358,7 +358,9 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   PairTable<Junction> table;
   table.build(
       support, junction_cache_bytes, factorised,
-      [&](std::size_t g, std::uint32_t i, std::uint32_t j) { return joins(i, j) ? junction(i, j, support.kernel(g)) : Junction{}; },
+      [&](std::size_t g, std::uint32_t i, std::uint32_t j) {
+        return joins(i, j) ? junction(i, j, support.kernel(g)) : Junction{S(T(0)), {}, detail::no_junction};
+      },
       parallel_for);
   // Budgets (segment_budget.hpp): sweep k computes A^(k + 1); a start of p pieces reads
   // A^(k + 1 - p), which lagged_w (W) and lagged_u (U, forceable starts only) keep for p > 1
@@ -470,10 +472,10 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
           // Only a light-born s forces a start (conditioned_coefficients): the other rows read W.
           if (end[i].flags & conditioned_light_born) {
             for (std::uint32_t j = starting.begin; j < starting.end; ++j, ++row)
-              if (joins(i, j)) detail::apply_junction(*row, read(*row, record(j)), acc);
+              if (row->code != detail::no_junction) detail::apply_junction(*row, read(*row, record(j)), acc);
           } else {
             for (std::uint32_t j = starting.begin; j < starting.end; ++j, ++row)
-              if (joins(i, j)) detail::apply_junction(*row, starting_w[record(j)], acc);
+              if (row->code != detail::no_junction) detail::apply_junction(*row, starting_w[record(j)], acc);
           }
         } else {
           for (std::uint32_t j = starting.begin; j < starting.end; ++j)
