@@ -434,15 +434,17 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
             }
             return sum;
           };
-          // Ending slot i's values from the class sums `sum` into acc (U and W, or W alone).
-          auto add_classes = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum, auto& acc) {
+          // Ending slot i's values from the class sums `sum` into `sums` (U and W, or W alone).
+          auto add_classes = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum, auto& sums) {
             // Field by field: a ConditionedJunction built from them went through the stack.
             const detail::ClassJunctions<S>& junctions = class_junction[class_offset[g] + (i - ending.begin)];
+            auto acc = sums;  // a local copy, as in add_row
             for (int k_class = 0; k_class < 3; ++k_class) {
               const std::uint8_t code = junctions.code[k_class];
               detail::apply_junction(junctions.transfer, junctions.r[k_class], code,
                                      detail::read_successor(code, sum[k_class].u, sum[k_class].w), acc);
             }
+            sums = acc;
           };
           // Stored, not returned: a returned value went through the stack (figures.md).
           auto update = [&](std::uint32_t i, const std::array<ConditionedValues<S>, 3>& sum) {
@@ -466,8 +468,9 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         }
       }
       const T kernel = support.kernel(g);
-      // Ending slot i's junctions into acc (U and W, or W alone where no junction reads its U).
-      auto add_row = [&](std::uint32_t i, auto& acc) {
+      // Ending slot i's junctions into `sums` (U and W, or W alone where no junction reads its U).
+      auto add_row = [&](std::uint32_t i, auto& sums) {
+        auto acc = sums;  // summed in a local copy: through the reference the sweeps were slower (figures.md)
         if (const Junction* row = table.row(i, starting.begin)) {
           // Only a light-born s forces a start (conditioned_coefficients): the other rows read W.
           if (end[i].flags & conditioned_light_born) {
@@ -484,6 +487,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
               detail::apply_junction(jn, read(jn, record(j)), acc);
             }
         }
+        sums = acc;
       };
       for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
         if (slot_u[i] != 0) {
