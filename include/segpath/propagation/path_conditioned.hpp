@@ -419,19 +419,37 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
       if constexpr (J::factorisable) {
         if (has_factorisation && factorised[g]) {
           // The sums over the starts of each class, but for slot `skip` (none: no_cluster).
+          // Summed per class with constant indices (an array indexed by the class kept every sum
+          // in memory, figures.md); only a start of class 2 can be forced (record_u != 0).
           auto class_sums = [&](std::uint32_t skip) {
-            std::array<ConditionedValues<S>, 3> sum{};
+            Pair w0 = zero, w1 = zero, w2 = zero, u2 = zero;
             for (std::uint32_t j = starting.begin; j < starting.end; ++j) {
               const detail::ConditionedStart<T>& st = start[record(j)];
               if (!(st.geometry > T(0)) || j == skip) continue;
-              const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
               const Pair& w = starting_w[record(j)];
-              for (int e = 0; e < 2; ++e) sum[k_class].w[e] += w[e] * st.geometry;
-              if (const std::uint32_t iu = record_u[record(j)]; iu != 0) {  // forced_weight > 0
-                const Pair& u = starting_u[iu];
-                for (int e = 0; e < 2; ++e) sum[k_class].u[e] += u[e] * (st.geometry * st.forced_weight);
+              const S a = w[0] * st.geometry, b = w[1] * st.geometry;
+              if (st.flags & conditioned_light_technique) {
+                w2[0] += a;
+                w2[1] += b;
+                if (const std::uint32_t iu = record_u[record(j)]; iu != 0) {  // forced_weight > 0
+                  const Pair& u = starting_u[iu];
+                  const T forced = st.geometry * st.forced_weight;
+                  u2[0] += u[0] * forced;
+                  u2[1] += u[1] * forced;
+                }
+              } else if (st.flags & conditioned_potential) {
+                w1[0] += a;
+                w1[1] += b;
+              } else {
+                w0[0] += a;
+                w0[1] += b;
               }
             }
+            std::array<ConditionedValues<S>, 3> sum;
+            sum[0].w = w0;
+            sum[1].w = w1;
+            sum[2].w = w2;
+            sum[2].u = u2;
             return sum;
           };
           // Ending slot i's values from the class sums `sum` into `sums` (U and W, or W alone).
