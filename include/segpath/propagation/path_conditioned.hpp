@@ -281,8 +281,11 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   for (std::size_t r = 0; r < record.size(); ++r) {
     if (!(start[r].forced_weight > T(0))) continue;
     record_u[r] = ++forced_records;
-    if (const std::uint32_t i = start[r].source; i != no_cluster && slot_u[i] == 0) slot_u[i] = ++forced_slots;
+    if (const std::uint32_t i = start[r].source; i != no_cluster) slot_u[i] = 1;
   }
+  // Numbered in slot order, so that a sweep writes the kept U in order.
+  for (std::uint32_t& u : slot_u)
+    if (u != 0) u = ++forced_slots;
   // (No slot's U is read before the first sweep has written it: at budget 0 a start reads the emission.)
   std::vector<Pair> current_u(std::size_t(forced_slots) + 1, zero), starting_u(std::size_t(forced_records) + 1, zero);
   // Storing the values of ending slot i (U only where kept).
