@@ -401,7 +401,7 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
         ring_values * sizeof(std::array<double, 2>) + (std::ranges::max(pieces) > 1 ? (start_records + forced_starts + 1) * 4 : 0);
     CHECK(memory.lagged >= rings + watches * 10);
     CHECK(memory.lagged <= rings + watches * 20);
-    CHECK(memory.forced_values == (forced_starts + forced_slots + 2) * sizeof(std::array<double, 2>));
+    CHECK(memory.forced_values == (forced_starts + forced_slots + 2) * sizeof(std::array<double, 2>) + (forced_starts + 1) * 4);
     for (std::uint32_t s = 0; s < p.n; ++s) {
       const double reference = naive(p, s, depth, near_of, [&](std::uint32_t q) { return kernel[q]; }, pieces);
       CHECK(result[s] == Approx(reference).epsilon(1e-10).margin(1e-12));

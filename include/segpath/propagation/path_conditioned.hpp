@@ -206,7 +206,7 @@ ConditionedEnd<spectrum_scalar_t<S>> conditioned_end(const ConditionedInputs<S, 
 struct ConditionedMemory {
   std::size_t junction_table = 0;  ///< the ConditionedJunction table (junction_cache_bytes at most)
   std::size_t lagged = 0;          ///< the lagged values of chains and their watches: 0 without chains
-  std::size_t forced_values = 0;   ///< the U values of the segments a junction can force, and their copies
+  std::size_t forced_values = 0;   ///< the U values of the segments a junction can force, their copies and the copies' sources
 };
 
 /// `iterations` >= 1 Jacobi iterations over the groups of a JunctionSupport (clusters, disks)
@@ -219,8 +219,8 @@ struct ConditionedMemory {
 /// disks what is read of a start is kept per segment and read at random (StartRecords).
 /// Memory per segment: W twice (the values, updated in place, and a start's gathered copy), the
 /// emission in 16 bytes and 32 bytes more (float), and two indices; U twice only for the
-/// segments a junction can force (forced_weight > 0: light technique samples), returned in
-/// ConditionedMemory::forced_values.
+/// segments a junction can force (forced_weight > 0: light technique samples), with an index
+/// per copy, returned in ConditionedMemory::forced_values.
 ///
 /// `factorised[g]` (optional, one per group; J::factorisable supports only) marks groups where
 /// link(s, s') = diffuse[s] for every s ending and s' starting there and light_pair(s, s') is
@@ -286,6 +286,11 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   // Numbered in slot order, so that a sweep writes the kept U in order.
   for (std::uint32_t& u : slot_u)
     if (u != 0) u = ++forced_slots;
+  // Per forceable start (record_u), its source's U (slot_u of its source; 0: none): the gather
+  // reads it in order instead of slot_u at random.
+  std::vector<std::uint32_t> source_u(std::size_t(forced_records) + 1, 0);
+  for (std::size_t r = 0; r < record.size(); ++r)
+    if (record_u[r] != 0 && start[r].source != no_cluster) source_u[record_u[r]] = slot_u[start[r].source];
   // (No slot's U is read before the first sweep has written it: at budget 0 a start reads the emission.)
   std::vector<Pair> current_u(std::size_t(forced_slots) + 1, zero), starting_u(std::size_t(forced_records) + 1, zero);
   // Storing the values of ending slot i (U only where kept).
@@ -411,7 +416,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
       } else if (depth == 1 || start_watch[r] == detail::no_watch) {
         // The common case, field by field: through `gather` the gather is slower (figures.md).
         starting_w[r] = current_w[i];
-        if (forceable) starting_u[record_u[r]] = current_u[slot_u[i]];
+        if (forceable) starting_u[record_u[r]] = current_u[source_u[record_u[r]]];
       } else {
         starting_w[r] = lagged_w.at(start_watch[r], b);
         if (forceable) starting_u[record_u[r]] = lagged_u.at(u_watch[record_u[r]], b);
@@ -530,11 +535,11 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   const ConditionedMemory memory{
       table.value_bytes(),
       lagged_w.bytes() + lagged_u.bytes() + (start_watch.capacity() + u_watch.capacity()) * sizeof(std::uint32_t),
-      (current_u.capacity() + starting_u.capacity()) * sizeof(Pair)};
+      (current_u.capacity() + starting_u.capacity()) * sizeof(Pair) + source_u.capacity() * sizeof(std::uint32_t)};
   // The propagation's peak is here: what only the sweeps read goes before the result is allocated.
   table = {};
   lagged_u = {};
-  detail::release(starting_w, starting_u, current_u, start, end, emission, class_junction, class_offset, slot_u, record_u,
+  detail::release(starting_w, starting_u, current_u, start, end, emission, class_junction, class_offset, slot_u, record_u, source_u,
                   start_watch, u_watch);
   // Segments whose y end is in no group keep their emission; each segment's value is over
   // paths of at most iterations + 1 segments, A^(iterations + 1 - p(s)).
