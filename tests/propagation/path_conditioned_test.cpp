@@ -378,7 +378,8 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
     }
     CHECK(memory.junction_table == 0);
     // U is kept only for the starts a junction can force (light technique samples with
-    // D_lt > 0) and for their ending slots, plus one shared zero in each list.
+    // D_lt > 0) and for their ending slots, plus one shared zero in each list; each such start
+    // also keeps its source's U index (4 bytes, plus one unused).
     std::size_t forced_starts = 0, forced_slots = 0;
     // The lagged values it reports: W in one ring of p values per ending slot of a chain of
     // p > 1, U in one more for each forced start of p > 1 that reads a slot, each ring with its

@@ -206,7 +206,8 @@ ConditionedEnd<spectrum_scalar_t<S>> conditioned_end(const ConditionedInputs<S, 
 struct ConditionedMemory {
   std::size_t junction_table = 0;  ///< the ConditionedJunction table (junction_cache_bytes at most)
   std::size_t lagged = 0;          ///< the lagged values of chains and their watches: 0 without chains
-  std::size_t forced_values = 0;   ///< the U values of the segments a junction can force, their copies and the copies' sources
+  /// The U values of the segments a junction can force, their copies and the sources' U indices.
+  std::size_t forced_values = 0;
 };
 
 /// `iterations` >= 1 Jacobi iterations over the groups of a JunctionSupport (clusters, disks)
@@ -539,8 +540,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   // The propagation's peak is here: what only the sweeps read goes before the result is allocated.
   table = {};
   lagged_u = {};
-  detail::release(starting_w, starting_u, current_u, start, end, emission, class_junction, class_offset, slot_u, record_u, source_u,
-                  start_watch, u_watch);
+  detail::release(starting_w, starting_u, current_u, start, end, emission, class_junction, class_offset, slot_u, record_u,
+                  source_u, start_watch, u_watch);
   // Segments whose y end is in no group keep their emission; each segment's value is over
   // paths of at most iterations + 1 segments, A^(iterations + 1 - p(s)).
   const auto budget_of = [&](std::size_t s) { return depth == 1 ? iterations : iterations + 1 - int(in.pieces[s]); };

@@ -116,7 +116,8 @@ struct FilteringStats {
   /// PropagationWorkspace::lagged_bytes), for the whole pool.
   std::size_t lagged_bytes = 0;
   /// In bytes_per_segment: the path-conditioned propagation's U values, kept only for the
-  /// segments a junction can force (ConditionedMemory::forced_values), for the whole pool.
+  /// segments a junction can force, and their indices (ConditionedMemory::forced_values), for
+  /// the whole pool.
   std::size_t forced_value_bytes = 0;
   /// Wall time of the stages of render_iteration: paths (pool), support (clusters or disk
   /// junctions), densities (MMIS denominators, light side), propagation (with its pair

@@ -27,7 +27,8 @@ namespace segpath::filtering {
 /// (FilteringOptions::transfer_cache_bytes) and the copies of FilteringStats::propagation_copy_bytes:
 /// at most, per ending slot its W values, emission, end, class junctions and U index, per start
 /// its W values, start and U index, per segment its light side (LightSide) and the s-only factor
-/// of q_l. The U values of the segments a junction can force are in FilteringStats::forced_value_bytes.
+/// of q_l. The U values of the segments a junction can force, and their indices, are in
+/// FilteringStats::forced_value_bytes.
 template <Spectrum S>
 inline constexpr std::size_t conditioned_bytes_per_segment =
     2 * sizeof(std::array<S, 2>) + sizeof(detail::ConditionedEmission<S>) + sizeof(detail::ConditionedEnd<spectrum_scalar_t<S>>) +
