@@ -11,7 +11,9 @@
 #include <segpath/testing/two_threads.hpp>
 
 #include <algorithm>
+#include <iterator>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "custom_technique/cosine_surface_sampler.hpp"
@@ -63,6 +65,9 @@ TEST_CASE("segment filtering: bad options are rejected", "[algorithms]") {
   CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
   o = {};
   o.alpha = 1;
+  CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
+  o = {};
+  o.pixel_passes = 0;
   CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
   o = {};
   o.next_event = true;  // from camera technique points, which PhF has none of: it draws none
@@ -155,14 +160,19 @@ TEST_CASE("MVF, PhF and BDPF: a fast furnace check for the sanitizer run", "[alg
   // Voxels (unjittered, 2 x 2 per period) tile the slab exactly; disks are biased O(r) where
   // the technique points are sparse, which 8 x 8 pixels resolve (the sphere furnace's [stat]
   // test checks that their bias shrinks with r).
+  // PhF and BDPF also in three pixel passes (FilteringOptions::pixel_passes). Not MVF: a pass's
+  // ~21 camera paths leave clusters without a technique sample (its coverage bias, -4 % here).
   for (const FilteringMode mode : {FilteringMode::mvf, FilteringMode::phf, FilteringMode::bdpf}) {
-    for (const FilteringSupport support : {FilteringSupport::voxel}) {
+    for (const std::uint32_t passes : {1u, 3u}) {
+      if (mode == FilteringMode::mvf && passes > 1) continue;
+      const FilteringSupport support = FilteringSupport::voxel;
       FilteringOptions<double> o;
       o.mode = mode;
       o.max_length = max_length;
       o.support = support;
       o.jitter = false;
       o.seed = 21;
+      o.pixel_passes = passes;
       const SegmentFiltering<PhotographedSlab<double>> method(o);
       testing::RunningStats stats;
       DropCounters drops;
@@ -173,8 +183,8 @@ TEST_CASE("MVF, PhF and BDPF: a fast furnace check for the sanitizer run", "[alg
         for (auto v : image.pixels()) mean += v;
         stats.add(mean / 64.0);
       }
-      INFO(to_string(mode) << ", " << to_string(support) << ": " << stats.mean() << " +- " << stats.standard_error() << " vs "
-                           << expected);
+      INFO(to_string(mode) << ", " << to_string(support) << ", " << passes << " passes: " << stats.mean() << " +- "
+                           << stats.standard_error() << " vs " << expected);
       CHECK(drops.total() == 0);
       CHECK(std::abs(stats.mean() - expected) <= 5 * stats.standard_error() + 1e-9 * expected);
       CHECK(stats.standard_error() < 0.03 * expected);  // a factor-2 error is > 30 standard errors off
@@ -193,17 +203,20 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
   // Paths of up to 6 segments seen from plane A: L_A truncated after 5 reflections.
   double expected = 0;
   for (unsigned k = 0; k < max_length; ++k) expected += scene.bounce_radiance(testing::SlabSide::a, k);
-  // Next-event segments add a camera-side technique to MVF and BDPF.
-  const std::pair<FilteringMode, bool> variants[] = {{FilteringMode::mvf, false}, {FilteringMode::phf, false}, {FilteringMode::bdpf, false},
-                                                     {FilteringMode::mvf, true}, {FilteringMode::bdpf, true}};
+  // Next-event segments add a camera-side technique to MVF and BDPF; the last variant draws
+  // each iteration in three pixel passes.
+  const std::tuple<FilteringMode, bool, std::uint32_t> variants[] = {
+      {FilteringMode::mvf, false, 1}, {FilteringMode::phf, false, 1}, {FilteringMode::bdpf, false, 1},
+      {FilteringMode::mvf, true, 1},  {FilteringMode::bdpf, true, 1}, {FilteringMode::bdpf, true, 3}};
   const double alpha = testing::sidak_alpha(0.01, std::size(variants));
-  for (const auto& [mode, next_event] : variants) {
+  for (const auto& [mode, next_event, passes] : variants) {
     FilteringOptions<double> o;
     o.mode = mode;
     o.max_length = max_length;
     o.light_path_ratio = 1.0;
     o.jitter = false;
     o.next_event = next_event;
+    o.pixel_passes = passes;
     o.seed = 11;
     const SegmentFiltering<PhotographedSlab<double>> method(o);
     // Each iteration's image mean is one sample (pixels of one iteration are correlated).
@@ -217,7 +230,7 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
       for (auto v : image.pixels()) mean += v;
       stats.add(mean / 256.0);
     }
-    INFO(to_string(mode) << (next_event ? " + next-event" : "") << ": " << stats.mean() << " +- " << stats.standard_error() << " vs " << expected);
+    INFO(to_string(mode) << (next_event ? " + next-event" : "") << ", " << passes << " passes: " << stats.mean() << " +- " << stats.standard_error() << " vs " << expected);
     CHECK(drops.total() == 0);
     if (stats.variance() < 1e-20) {
       CHECK(stats.mean() == Approx(expected).epsilon(1e-9));  // MVF in the furnace: every sample exact
@@ -284,8 +297,11 @@ auto disk_kernel(const Scn& scene, const Pool& pool, double r) {
   };
 }
 
+/// `pass` of `passes` (FilteringOptions::pixel_passes): the pool of that pass, whose light
+/// densities count its own light paths.
 template <class Scn>
-void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, double cell) {
+void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, double cell, std::uint32_t passes = 1,
+                              std::uint32_t pass = 0) {
   using Filter = SegmentFiltering<Scn>;
   for (const bool factorise : {false, true}) {
     FilteringOptions<double> o;
@@ -294,8 +310,9 @@ void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, d
     o.factorise = factorise;
     o.bridges = bridges;
     o.next_event = next_event;
+    o.pixel_passes = passes;
     const Filter filter(o);
-    auto ctx = filter.context(scene, 1);
+    auto ctx = filter.context(scene, 1, pass);
     filter.build_pool(ctx);
     const auto& pool = ctx.pool;
     Clustering<double> clustering;
@@ -304,9 +321,11 @@ void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, d
     filtering::compute_densities(ctx, clustering, SerialFor{}, &side);
     const auto kernel = testing::voxel_kernel_oracle(pool, filtering::grid(o, cell, ctx.stream),
                                                      [&](const SurfacePoint<double>& p) { return canonical(scene, p); });
-    INFO("bridges " << bridges << ", next-event " << next_event << ", factorise " << factorise);
-    const auto [checked, with_techniques] = testing::check_denominators(filter, scene, pool, kernel);
-    testing::check_light_side(filter, scene, pool, side, kernel);
+    INFO("bridges " << bridges << ", next-event " << next_event << ", factorise " << factorise << ", pass " << pass << " of "
+                     << passes);
+    const auto [checked, with_techniques] =
+        testing::check_denominators(filter, scene, pool, kernel, [](std::uint32_t) { return 0.0; }, pass);
+    testing::check_light_side(filter, scene, pool, side, kernel, pass);
     CHECK(checked > 500);
     CHECK(with_techniques > checked / 4);  // the pools exercise clusters with several technique samples
     if (bridges) {
@@ -375,6 +394,46 @@ TEST_CASE("every MMIS denominator includes every technique sample of its cluster
   check_voxel_denominators(PhotographedSlab<double>(furnace, 8), false, true, 0.4);
   check_voxel_denominators(PhotographedSphere(8), false, false, 0.4);
   check_voxel_denominators(PhotographedSphere(8), true, true, 0.4);
+  // The second of two pixel passes: its light paths are half the iteration's.
+  check_voxel_denominators(PhotographedSphere(12), true, true, 0.4, 2, 1);
+}
+
+TEST_CASE("segment filtering: the pixel passes of an iteration draw every pixel once, from streams of their own",
+          "[algorithms]") {
+  const PhotographedSphere scene(8);  // 64 pixels: passes of 22, 21 and 21
+  FilteringOptions<double> o;
+  o.max_length = 4;
+  o.light_path_ratio = 2.0;
+  o.pixel_passes = 3;
+  const SegmentFiltering<PhotographedSphere> filter(o);
+  std::vector<int> sensor_segments(64, 0);
+  std::vector<std::vector<double>> light_starts(3);  // the x coordinate of each light start's x
+  for (std::uint32_t pass = 0; pass < 3; ++pass) {
+    auto ctx = filter.context(scene, 4, pass);
+    filter.build_pool(ctx);
+    const std::uint64_t pixels = pass == 0 ? 22 : 21;
+    CHECK(ctx.light_paths() == 2 * pixels);
+    for (std::size_t i = 0; i < ctx.pool.size(); ++i) {
+      const auto f = ctx.pool.flags[i];
+      if (f & filtering::sensor_segment) {
+        CHECK(ctx.pool.pixel[i] % 3 == pass);
+        ++sensor_segments.at(ctx.pool.pixel[i]);
+      }
+      if (f & filtering::light_start) light_starts[pass].push_back(ctx.pool.segments[i].x.position.x);
+    }
+    INFO("pass " << pass);
+    CHECK(light_starts[pass].size() > pixels);  // most of the 2 x pixels light paths start
+    std::sort(light_starts[pass].begin(), light_starts[pass].end());
+  }
+  for (std::uint32_t p = 0; p < 64; ++p) CHECK(sensor_segments[p] == 1);  // the camera inside the sphere sees it everywhere
+  for (std::uint32_t a = 0; a < 3; ++a)
+    for (std::uint32_t b = a + 1; b < 3; ++b) {
+      std::vector<double> shared;
+      std::set_intersection(light_starts[a].begin(), light_starts[a].end(), light_starts[b].begin(), light_starts[b].end(),
+                            std::back_inserter(shared));
+      INFO("passes " << a << " and " << b);
+      CHECK(shared.empty());
+    }
 }
 
 TEST_CASE("every MMIS denominator includes every technique sample of its disk", "[algorithms]") {
@@ -521,9 +580,9 @@ TEST_CASE("a user's own technique joins the technique set: its density enters ev
   using Cosine = example::CosineSurfaceSampler<Scn>;
   const Scn scene(furnace, 16);
   const double per_pixel = 0.5;
-  const double draws = std::round(per_pixel * 256);
-  // N_u p_A(x) cos_x / pi |cos_y| / d^2, the cosine technique's density of pooled segment s.
-  const auto extra_of = [&](const auto& pool) {
+  // N_u p_A(x) cos_x / pi |cos_y| / d^2, the cosine technique's density of pooled segment s,
+  // for N_u = `draws`.
+  const auto extra_of = [&](const auto& pool, double draws) {
     return [&scene, &pool, draws](std::uint32_t s) {
       const auto& seg = pool.segments[s];
       if (seg.x.kind != PointKind::surface || seg.y.kind != PointKind::surface) return 0.0;
@@ -533,19 +592,29 @@ TEST_CASE("a user's own technique joins the technique set: its density enters ev
       return cos_x > 0 ? draws * cos_x / pi<double> * cos_y / d2 / scene.area() : 0.0;
     };
   };
-  for (const FilteringMode mode : {FilteringMode::bdpf, FilteringMode::mvf, FilteringMode::phf}) {
-    for (const FilteringSupport support : {FilteringSupport::voxel, FilteringSupport::disk}) {
+  // The last: the second of two pixel passes, whose user draws are half the iteration's.
+  const std::tuple<FilteringMode, FilteringSupport, std::uint32_t> variants[] = {
+      {FilteringMode::bdpf, FilteringSupport::voxel, 1}, {FilteringMode::bdpf, FilteringSupport::disk, 1},
+      {FilteringMode::mvf, FilteringSupport::voxel, 1},  {FilteringMode::mvf, FilteringSupport::disk, 1},
+      {FilteringMode::phf, FilteringSupport::voxel, 1},  {FilteringMode::phf, FilteringSupport::disk, 1},
+      {FilteringMode::bdpf, FilteringSupport::voxel, 2}};
+  for (const auto& [mode, support, passes] : variants) {
+    {
+      const std::uint32_t pass = passes - 1;
+      const double draws = std::round(per_pixel * 256 / passes);
       FilteringOptions<double> o;
       o.mode = mode;
       o.max_length = 5;
       o.light_path_ratio = 0.75;
       o.support = support;
+      o.pixel_passes = passes;
       const SegmentFiltering<Scn, Cosine> filter(o, FilteringTechnique<Cosine>{Cosine{}, per_pixel});
-      auto ctx = filter.context(scene, 1);
+      auto ctx = filter.context(scene, 1, pass);
       filter.build_pool(ctx);
       const auto& pool = ctx.pool;
       const auto extras = std::count_if(pool.flags.begin(), pool.flags.end(), [](auto f) { return (f & filtering::extra_technique) != 0; });
-      INFO(to_string(mode) << ", " << to_string(support) << ": " << extras << " segments of the user's technique");
+      INFO(to_string(mode) << ", " << to_string(support) << ", pass " << pass << " of " << passes << ": " << extras
+                           << " segments of the user's technique");
       CHECK(extras > 50);
       std::pair<std::size_t, std::size_t> checked;
       if (support == FilteringSupport::voxel) {
@@ -555,15 +624,15 @@ TEST_CASE("a user's own technique joins the technique set: its density enters ev
         filtering::compute_densities(ctx, clustering, SerialFor{}, &side);
         const auto kernel = testing::voxel_kernel_oracle(pool, filtering::grid(o, 0.4, ctx.stream),
                                                          [&](const SurfacePoint<double>& p) { return canonical(scene, p); });
-        checked = testing::check_denominators(filter, scene, pool, kernel, extra_of(pool));
-        testing::check_light_side(filter, scene, pool, side, kernel);
+        checked = testing::check_denominators(filter, scene, pool, kernel, extra_of(pool, draws), pass);
+        testing::check_light_side(filter, scene, pool, side, kernel, pass);
       } else {
         const double r = 0.25;
         DiskJunctions<double> junctions;
         filtering::join(ctx, r, junctions, SerialFor{});
         filtering::compute_densities(ctx, junctions, SerialFor{});
         const auto kernel = disk_kernel(scene, pool, r);
-        checked = testing::check_denominators(filter, scene, pool, kernel, extra_of(pool));
+        checked = testing::check_denominators(filter, scene, pool, kernel, extra_of(pool, draws), pass);
       }
       CHECK(checked.first == pool.size());
     }

@@ -54,7 +54,6 @@ auto voxel_kernel_oracle(const Pool& pool, const Grid& grid, const Canonical& ca
   };
 }
 
-/// `kernel(end, start)` is the kernel value joining the end y_t of one pooled segment to the
 /// Whether pooled segment s is a kept chain (only the light start draws it: a light start's own
 /// chain to a light end off the surfaces, a point light, the sun or PhF's sky; the draw's
 /// density is kept), judged from how it was drawn and where it ends, not from the pool's kept
@@ -68,20 +67,31 @@ std::pair<bool, bool> kept_or_dirac(const Pool& pool, std::uint32_t s) {
   return {kept, dirac_end};
 }
 
+/// N_L of pass `pass` of an iteration (FilteringOptions::pixel_passes), counted here: the
+/// method's light paths per pixel (none for MVF) times the pixels p with p mod passes = pass, rounded.
+template <class Filter, class Scn>
+double light_paths_of_pass(const Filter& filter, const Scn& scene, std::uint32_t pass) {
+  const std::uint32_t passes = filter.options().pixel_passes;
+  std::uint64_t pixels = 0;
+  for (std::uint32_t p = 0; p < scene.sensor().pixel_count(); ++p) pixels += p % passes == pass ? 1 : 0;
+  return double(std::llround(filtering::technique_set(filter.options()).light_paths_per_pixel * double(pixels)));
+}
+
 /// `kernel(end, start)` is the kernel value joining the end y_t of one pooled segment to the
 /// start x_s of another (0 outside the support); a segment is never its own technique sample.
 /// Checks D(s) for every segment within 1e-12 relative (double; float scenes: 1e-4, the sums run
 /// in another order) and returns {segments checked, segments with more than one technique sample}.
 /// `extra(s)` is sum_u N_u p_u(s) of the user's techniques (FilteringTechnique), written out
-/// by the caller; none by default.
+/// by the caller; none by default. `pass`: the pool is that pass of FilteringOptions::pixel_passes.
 template <class Filter, class Scn, class Kernel, class Extra = double (*)(std::uint32_t)>
 std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, const Scn& scene, const typename Filter::Pool& pool,
                                                        const Kernel& kernel,
-                                                       const Extra& extra = [](std::uint32_t) { return 0.0; }) {
+                                                       const Extra& extra = [](std::uint32_t) { return 0.0; },
+                                                       std::uint32_t pass = 0) {
   using T = typename Scn::Scalar;
   const double tolerance = std::is_same_v<T, double> ? 1e-12 : 1e-4;
   const auto& bsdf = scene.bsdf();
-  const double n_light = double(filter.light_path_count(scene));
+  const double n_light = light_paths_of_pass(filter, scene, pass);
   const bool next_event = filtering::technique_set(filter.options()).next_event;
   std::vector<std::uint32_t> targets;
   for (std::uint32_t u = 0; u < pool.size(); ++u)
@@ -182,14 +192,14 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
 /// LightSide), recomputed by enumeration: D_l(s) = light start + every light technique sample
 /// whose start lies in y_s's support (its draw includes the roulette's c), its number of
 /// positive terms, and D_lt(s), which equals D_l(s): light paths have no depth limit, so every
-/// light-born segment's draw would itself try a predecessor. Same tolerances as above.
+/// light-born segment's draw would itself try a predecessor. Same tolerances and `pass` as above.
 template <class Filter, class Scn, class Side, class Kernel>
 void check_light_side(const Filter& filter, const Scn& scene, const typename Filter::Pool& pool, const Side& side,
-                      const Kernel& kernel) {
+                      const Kernel& kernel, std::uint32_t pass = 0) {
   using T = typename Scn::Scalar;
   const double tolerance = std::is_same_v<T, double> ? 1e-12 : 1e-4;
   const auto& bsdf = scene.bsdf();
-  const double n_light = double(filter.light_path_count(scene));
+  const double n_light = light_paths_of_pass(filter, scene, pass);
   const double continuation = filtering::technique_set(filter.options()).light_continuation;
   for (std::uint32_t s = 0; s < pool.size(); ++s) {
     const auto& seg = pool.segments[s];

@@ -61,7 +61,8 @@ class SegmentFiltering {
   }
   [[nodiscard]] const FilteringOptions<T>& options() const noexcept { return options_; }
 
-  /// N_L: light paths per iteration.
+  /// N_L: light paths per iteration of one pass (with pixel_passes, pass k draws beta x its
+  /// own pixels: Context::light_paths).
   [[nodiscard]] std::uint64_t light_path_count(const Scn& scene) const noexcept {
     return filtering::light_path_count(scene, filtering::technique_set(options_));
   }
@@ -76,9 +77,13 @@ class SegmentFiltering {
     return KernelSchedule<T>(initial_cell_size(scene), options_.alpha);
   }
 
-  /// A fresh context for `iteration` (0-based), for running the stages one by one.
-  [[nodiscard]] Context context(const Scn& scene, std::uint64_t iteration) const {
-    return Context{scene, options_, iteration + 1};
+  /// A fresh context for `iteration` (0-based) and its pass `pass` of pixel_passes, for running
+  /// the stages one by one.
+  [[nodiscard]] Context context(const Scn& scene, std::uint64_t iteration, std::uint32_t pass = 0) const {
+    Context ctx{scene, options_, iteration + 1};
+    ctx.pass = pass;
+    ctx.passes = options_.pixel_passes;
+    return ctx;
   }
 
   /// Stage 1: every technique of the set draws into the context's pool, and the user
@@ -110,13 +115,23 @@ class SegmentFiltering {
   template <ParallelFor P = SerialFor>
   FilteringStats render_iteration_at(const Scn& scene, std::uint64_t iteration, T cell, Framebuffer<S>& image,
                                      DropCounters& drops, const P& parallel_for = {}) const {
+    FilteringStats stats = render_pass(scene, iteration, 0, cell, image, drops, parallel_for);
+    for (std::uint32_t pass = 1; pass < options_.pixel_passes; ++pass)
+      stats.add_pass(render_pass(scene, iteration, pass, cell, image, drops, parallel_for));
+    return stats;
+  }
+
+  /// One pass of render_iteration_at: the pool of the pass's pixels, filtered into `image`.
+  template <ParallelFor P = SerialFor>
+  FilteringStats render_pass(const Scn& scene, std::uint64_t iteration, std::uint32_t pass, T cell, Framebuffer<S>& image,
+                             DropCounters& drops, const P& parallel_for = {}) const {
     using Clock = std::chrono::steady_clock;
     auto lap = [last = Clock::now()](double& seconds) mutable {
       const auto now = Clock::now();
       seconds = std::chrono::duration<double>(now - last).count();
       last = now;
     };
-    Context ctx = context(scene, iteration);
+    Context ctx = context(scene, iteration, pass);
     FilteringStats& stats = ctx.stats;
     const Pool& pool = ctx.pool;
     build_pool(ctx, parallel_for);

@@ -35,8 +35,23 @@ struct Context {
   /// Per pooled segment, sum_u N_u p_u(s) over the user's techniques (empty without any).
   std::vector<T> extra_density{};
 
-  /// N_L: light paths per iteration.
-  [[nodiscard]] std::uint64_t light_paths() const noexcept { return light_path_count(scene, techniques); }
+  /// The pass of the iteration this pool is drawn for (FilteringOptions::pixel_passes): its
+  /// pixels are pass, pass + passes, pass + 2 passes, ...
+  std::uint32_t pass = 0, passes = 1;
+
+  /// The pixels of this pass, and the i-th of them.
+  [[nodiscard]] std::uint32_t pixels() const noexcept {
+    const std::uint32_t all = scene.sensor().pixel_count();
+    return all > pass ? (all - pass + passes - 1) / passes : 0;
+  }
+  [[nodiscard]] std::uint32_t pixel(std::uint32_t i) const noexcept { return pass + i * passes; }
+  /// The random-stream index of this pass's i-th draw of an unconditional technique (light
+  /// paths, the user's techniques, bridges): the passes of an iteration draw disjoint streams.
+  [[nodiscard]] std::uint64_t draw_index(std::uint64_t i) const noexcept { return i * passes + pass; }
+  /// N_L: light paths of this pass, beta x its pixels.
+  [[nodiscard]] std::uint64_t light_paths() const noexcept {
+    return std::uint64_t(std::llround(techniques.light_paths_per_pixel * double(pixels())));
+  }
 };
 
 }  // namespace segpath::filtering

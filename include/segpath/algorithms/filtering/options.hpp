@@ -5,6 +5,7 @@
 
 #include "segpath/core/vec.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -95,6 +96,12 @@ struct FilteringOptions {
   /// evaluates one light-technique density per junction (~2.4x the paper's propagation time
   /// on box 1, 1.5x its iteration).
   FilteringWeighting weighting = FilteringWeighting::path_conditioned;
+  /// An iteration draws its pool in this many passes, pass k over pixels k, k + passes, ...
+  /// with its share of the light paths and of the user's draws (Context::light_paths): each
+  /// pass estimates its own pixels from a pool 1 / passes the size, so memory falls that much
+  /// and the noise per second rises (fewer paths to reuse; MVF's coverage bias, a cluster
+  /// without a technique sample, grows as the pool thins). For pools that do not fit.
+  std::uint32_t pixel_passes = 1;
   std::uint64_t seed = 1;
 };
 
@@ -123,6 +130,24 @@ struct FilteringStats {
   /// junctions), densities (MMIS denominators, light side), propagation (with its pair
   /// evaluations), gather (pixels).
   double paths_seconds = 0, support_seconds = 0, densities_seconds = 0, propagation_seconds = 0, gather_seconds = 0;
+  std::uint32_t passes = 1;  ///< the pools (FilteringOptions::pixel_passes) the counts and seconds sum over
+
+  /// Adds a later pass of the same iteration: counts and seconds sum, memory is the larger pass's.
+  void add_pass(const FilteringStats& p) noexcept {
+    segments += p.segments, camera_segments += p.camera_segments, light_segments += p.light_segments;
+    bridge_segments += p.bridge_segments, clusters += p.clusters, next_event_segments += p.next_event_segments;
+    extra_segments += p.extra_segments, junctions += p.junctions;
+    factorised_camera_clusters += p.factorised_camera_clusters, factorised_light_clusters += p.factorised_light_clusters;
+    factorised_transfer_clusters += p.factorised_transfer_clusters, pair_evaluations += p.pair_evaluations;
+    bytes_per_segment = std::max(bytes_per_segment, p.bytes_per_segment);
+    transfer_cache_bytes = std::max(transfer_cache_bytes, p.transfer_cache_bytes);
+    propagation_copy_bytes = std::max(propagation_copy_bytes, p.propagation_copy_bytes);
+    lagged_bytes = std::max(lagged_bytes, p.lagged_bytes);
+    forced_value_bytes = std::max(forced_value_bytes, p.forced_value_bytes);
+    paths_seconds += p.paths_seconds, support_seconds += p.support_seconds, densities_seconds += p.densities_seconds;
+    propagation_seconds += p.propagation_seconds, gather_seconds += p.gather_seconds;
+    passes += p.passes;
+  }
 };
 
 /// Throws std::invalid_argument naming the first option out of range.
@@ -143,6 +168,8 @@ void validate(const FilteringOptions<T>& options) {
   if (!(options.light_continuation < T(1)) || std::isnan(options.light_continuation))
     throw std::invalid_argument("segpath::SegmentFiltering: the light continuation probability must be < 1 (negative: automatic), got " +
                                 std::to_string(options.light_continuation));
+  if (options.pixel_passes < 1)
+    throw std::invalid_argument("segpath::SegmentFiltering: pixel_passes must be >= 1, got 0");
   if (!(options.alpha > T(0) && options.alpha < T(1)))
     throw std::invalid_argument("segpath::SegmentFiltering: alpha must lie in (0, 1), got " + std::to_string(options.alpha));
 }

@@ -152,7 +152,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Scn& scene = ctx.scene;
-  Pcg32 rng = Pcg32::for_sample(ctx.options.seed, index, 2 * ctx.stream + 1);
+  Pcg32 rng = Pcg32::for_sample(ctx.options.seed, ctx.draw_index(index), 2 * ctx.stream + 1);
   const auto first = LightStartSampler<Scn>{}.sample(scene, {}, rng);
   if (!first) return;
   Record<T, S> r;
@@ -258,7 +258,7 @@ void add_bridges(Context<Scn>& ctx, const P& parallel_for) {
     const std::size_t j0 = sources.size() * c / path_chunks, j1 = sources.size() * (c + 1) / path_chunks;
     for (std::size_t j = j0; j < j1; ++j) {
       const std::uint32_t t = sources[j];
-      Pcg32 rng = Pcg32::for_sample(ctx.options.seed ^ 0x627269646765ULL /* "bridge" */, t, ctx.stream);
+      Pcg32 rng = Pcg32::for_sample(ctx.options.seed ^ 0x627269646765ULL /* "bridge" */, ctx.draw_index(t), ctx.stream);
       const auto pick = std::min<std::size_t>(targets.size() - 1, std::size_t(rng.template uniform<double>() * double(targets.size())));
       Record<T, S> r;
       r.segment = Segment<T>{pool.segments[t].y, pool.segments[targets[pick]].x};
@@ -284,14 +284,13 @@ template <LightSampledScene Scn, ParallelFor P>
 void draw_paths(Context<Scn>& ctx, const P& parallel_for) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
-  const Scn& scene = ctx.scene;
   auto& pool = ctx.pool;
-  const std::uint32_t pixels = scene.sensor().pixel_count();
+  const std::uint32_t pixels = ctx.pixels();
   const std::uint64_t light_paths = ctx.light_paths();
   std::vector<std::vector<Record<T, S>>> camera(path_chunks), light(path_chunks);
   parallel_for(path_chunks, [&](std::size_t c) {
     const std::uint64_t p0 = pixels * c / path_chunks, p1 = pixels * (c + 1) / path_chunks;
-    for (std::uint64_t p = p0; p < p1; ++p) trace_camera_path(ctx, std::uint32_t(p), camera[c]);
+    for (std::uint64_t p = p0; p < p1; ++p) trace_camera_path(ctx, ctx.pixel(std::uint32_t(p)), camera[c]);
     const std::uint64_t l0 = light_paths * c / path_chunks, l1 = light_paths * (c + 1) / path_chunks;
     for (std::uint64_t l = l0; l < l1; ++l) trace_light_path(ctx, l, light[c]);
   });

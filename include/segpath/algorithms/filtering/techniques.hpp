@@ -39,12 +39,12 @@ struct FilteringTechnique {
 
 namespace filtering {
 
-/// N_u: the technique's draws per iteration.
+/// N_u: the technique's draws in the context's pass of an iteration (per_pixel x its pixels).
 template <class Smp, LightSampledScene Scn>
-[[nodiscard]] std::uint64_t draw_count(const FilteringTechnique<Smp>& technique, const Scn& scene) {
+[[nodiscard]] std::uint64_t draw_count(const FilteringTechnique<Smp>& technique, const Context<Scn>& ctx) {
   if (!(technique.per_pixel > 0) || !std::isfinite(technique.per_pixel))
     throw std::invalid_argument("segpath::FilteringTechnique: per_pixel must be > 0, got " + std::to_string(technique.per_pixel));
-  return std::uint64_t(std::llround(technique.per_pixel * double(scene.sensor().pixel_count())));
+  return std::uint64_t(std::llround(technique.per_pixel * double(ctx.pixels())));
 }
 
 /// Draws a user technique's segments into the pool; the k-th technique of the list draws from
@@ -55,13 +55,13 @@ void draw_extra(Context<Scn>& ctx, const FilteringTechnique<Smp>& technique, std
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Scn& scene = ctx.scene;
-  const std::uint64_t draws = draw_count(technique, scene);
+  const std::uint64_t draws = draw_count(technique, ctx);
   constexpr std::size_t chunks = 64;
   std::vector<std::vector<Record<T, S>>> records(chunks);
   const std::uint64_t salt = ctx.options.seed ^ (0x6578747261ULL /* "extra" */ + (k << 40));
   parallel_for(chunks, [&](std::size_t c) {
     for (std::uint64_t i = draws * c / chunks, e = draws * (c + 1) / chunks; i < e; ++i) {
-      Pcg32 rng = Pcg32::for_sample(salt, i, ctx.stream);
+      Pcg32 rng = Pcg32::for_sample(salt, ctx.draw_index(i), ctx.stream);
       const auto sample = technique.sampler.sample(scene, typename Smp::Technique{}, rng);
       if (!sample || !(sample->pdf > T(0))) continue;
       Record<T, S> r;
@@ -86,7 +86,7 @@ template <LightSampledScene Scn, class Smp>
   using T = typename Scn::Scalar;
   if (ctx.pool.flags[i] & (chain_segment | delta_light | kept_density)) return T(0);
   const T p = technique.sampler.unoccluded_pdf(ctx.scene, typename Smp::Technique{}, ctx.pool.segments[i]);
-  return std::isfinite(p) && p > T(0) ? T(draw_count(technique, ctx.scene)) * p : T(0);
+  return std::isfinite(p) && p > T(0) ? T(draw_count(technique, ctx)) * p : T(0);
 }
 
 }  // namespace filtering
