@@ -67,6 +67,7 @@ struct MethodOptions {
   segpath::FilteringWeighting weighting = segpath::FilteringOptions<float>{}.weighting;
   bool print_stats = false;      ///< mvf, phf, bdpf: one line of FilteringStats per iteration on stderr
   std::optional<std::size_t> transfer_cache_mib;  ///< mvf, phf, bdpf: FilteringOptions::transfer_cache_bytes in MiB
+  std::uint32_t passes = 1;  ///< mvf, phf, bdpf: FilteringOptions::pixel_passes
 };
 
 namespace detail {
@@ -371,13 +372,14 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
     f.next_event = o.next_event;
     f.weighting = o.weighting;
     if (o.transfer_cache_mib) f.transfer_cache_bytes = *o.transfer_cache_mib << 20;
+    f.pixel_passes = o.passes;
     return f;
   }
   static void print(std::uint64_t iteration, const segpath::FilteringStats& f) {
     std::fprintf(stderr,
                  "iteration %llu: %llu segments (camera %llu, light %llu, bridge %llu, next-event %llu), %llu clusters, "
                  "%llu factorised, %llu pair evaluations, cell %.4g, %zu B/segment, cache %.1f MiB; seconds: paths %.3f, support %.3f, "
-                 "densities %.3f, propagation %.3f, gather %.3f\n",
+                 "densities %.3f, propagation %.3f, gather %.3f%s\n",
                  static_cast<unsigned long long>(iteration + 1), static_cast<unsigned long long>(f.segments),
                  static_cast<unsigned long long>(f.camera_segments), static_cast<unsigned long long>(f.light_segments),
                  static_cast<unsigned long long>(f.bridge_segments), static_cast<unsigned long long>(f.next_event_segments),
@@ -385,7 +387,8 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
                  static_cast<unsigned long long>(f.factorised_transfer_clusters),
                  static_cast<unsigned long long>(f.pair_evaluations), f.cell_size, f.bytes_per_segment,
                  double(f.transfer_cache_bytes) / double(1 << 20), f.paths_seconds, f.support_seconds, f.densities_seconds,
-                 f.propagation_seconds, f.gather_seconds);
+                 f.propagation_seconds, f.gather_seconds,
+                 f.passes > 1 ? ("; " + std::to_string(f.passes) + " passes (memory: the largest)").c_str() : "");
   }
   bool print_stats_ = false;
   std::optional<segpath::FilteringStats> last_stats_;

@@ -115,6 +115,7 @@ std::uint64_t available_bytes() {
 struct PeakEstimate {
   double rest = 0;   ///< bytes besides the transfer cache
   double cache = 0;  ///< the transfer cache's bytes (filtering methods)
+  double pool = 0;   ///< in rest: one pass's pool (filtering methods; --passes divides it)
   [[nodiscard]] std::uint64_t total() const noexcept { return std::uint64_t(rest + cache); }
 };
 
@@ -151,11 +152,13 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo)
       *method);
   if (!f) return estimate;
   const double scale = pixels / (double(pilot.width) * double(pilot.height));
-  // The pool, with the growth of its per-chunk record lists (measured: ~1.1x the pool).
-  bytes += 1.1 * double(f->segments) * scale * double(f->bytes_per_segment);
+  // The pool of one pass (the pilot's segments sum over its passes), with the growth of its
+  // per-chunk record lists (measured: ~1.1x the pool).
+  estimate.pool = 1.1 * double(f->segments) * scale * double(f->bytes_per_segment) / double(mo.passes);
+  bytes += estimate.pool;
   const double cache_budget = mo.transfer_cache_mib ? double(*mo.transfer_cache_mib) * (1 << 20)
                                                     : double(segpath::FilteringOptions<float>{}.transfer_cache_bytes);
-  estimate.cache = std::min(cache_budget, double(f->transfer_cache_bytes) * scale);
+  estimate.cache = std::min(cache_budget, double(f->transfer_cache_bytes) * scale);  // (the pilot's largest pass)
   return estimate;
 }
 
@@ -351,11 +354,18 @@ int run(const Options& o, const renderer::Ranks& ranks) {
                          *mo.transfer_cache_mib, o.memory_limit_gb ? "--memory-limit" : "the memory available",
                          memory_size(std::uint64_t(std::min(limit, 1e19))).c_str());
         }
-        if (limit > 0 && double(estimate) > limit)
+        if (limit > 0 && double(estimate) > limit) {
+          // The fewest passes whose pool fits beside the images (when any can).
+          const double images = peak.rest - peak.pool, room = limit - images;
+          const double passes = room > 0 ? std::floor(peak.pool * double(mo.passes) / room) + 1 : 0;
+          const std::string fewer_passes = filtering && peak.rest >= limit && passes > double(mo.passes) && passes <= 65536
+                                               ? "--passes " + std::to_string(std::uint64_t(passes)) + ", "
+                                               : "";
           fail("this render needs about " + memory_size(estimate) + ", more than " +
                (o.memory_limit_gb ? "--memory-limit" : "the memory available") + " (" +
-               memory_size(std::uint64_t(std::min(limit, 1e19))) + "); lower it with " +
+               memory_size(std::uint64_t(std::min(limit, 1e19))) + "); lower it with " + fewer_passes +
                (!filtering ? "" : peak.rest < limit ? "--transfer-cache, --beta or " : "--beta or ") + "--width/--height");
+        }
         if (o.stats && root)
           std::fprintf(stderr, "segpath-render: estimated peak memory %s (transfer cache %s)\n", memory_size(estimate).c_str(),
                        memory_size(estimate - std::min(estimate, std::uint64_t(peak.rest))).c_str());

@@ -49,6 +49,7 @@ struct Options {
   std::string weighting = segpath::to_string(segpath::FilteringOptions<float>{}.weighting);
   bool stats = false;
   std::optional<std::size_t> transfer_cache_mib;
+  std::uint32_t passes = 1;
   std::optional<double> memory_limit_gb;
   std::vector<std::string> out;
   std::optional<std::string> reference;
@@ -155,6 +156,11 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
                  "mvf/phf/bdpf: MiB of pair transfers cached per iteration (0: none, every sweep evaluates them); "
                  "default 1024, or what --memory-limit leaves")
       ->check(CLI::Range(std::size_t(0), std::size_t(1) << 20));
+  app.add_option("--passes", o.passes,
+                 "mvf/phf/bdpf: draw each iteration's pool in this many passes over interleaved pixels, "
+                 "each with its share of the light paths (memory / passes)")
+      ->check(CLI::Range(1u, 1u << 16))
+      ->capture_default_str();
   app.add_option("--memory-limit", o.memory_limit_gb,
                  "GB of memory the render may use; a render estimated to need more stops before it starts, "
                  "after the default transfer cache of mvf/phf/bdpf has shrunk to what it leaves (default: the memory available)")
@@ -231,6 +237,7 @@ inline std::string image_options(const Options& o) {
   line("bridges", o.bridges ? "on" : "off");
   line("next-event", o.next_event ? "on" : "off");
   line("weighting", o.weighting);
+  if (o.passes != 1) line("passes", std::to_string(o.passes));  // (absent from checkpoints of one pass)
   if (ends_with_obj(o.scene)) {
     line("camera-position", o.camera_position);
     line("camera-target", o.camera_target);
@@ -255,6 +262,7 @@ inline MethodOptions method_options(const Options& o) {
   mo.weighting = o.weighting == "paper" ? segpath::FilteringWeighting::paper : segpath::FilteringWeighting::path_conditioned;
   mo.print_stats = o.stats;
   mo.transfer_cache_mib = o.transfer_cache_mib;
+  mo.passes = o.passes;
   return mo;
 }
 
