@@ -69,6 +69,22 @@ TEST_CASE("segment filtering: bad options are rejected", "[algorithms]") {
   o = {};
   o.pixel_passes = 0;
   CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
+  {
+    // At render time: a pass without pixels, or (PhF, BDPF) without light paths.
+    const Scn scene(furnace, 4);  // 16 pixels
+    Framebuffer<double> image(4, 4);
+    DropCounters drops;
+    o.pixel_passes = 17;
+    o.mode = FilteringMode::mvf;
+    CHECK_THROWS_AS(SegmentFiltering<Scn>(o).render_iteration_at(scene, 0, 0.5, image, drops), std::invalid_argument);
+    o.pixel_passes = 16;
+    CHECK_NOTHROW(SegmentFiltering<Scn>(o).render_iteration_at(scene, 0, 0.5, image, drops));
+    o.mode = FilteringMode::bdpf;
+    o.light_path_ratio = 0.5;  // 8 light paths
+    CHECK_THROWS_AS(SegmentFiltering<Scn>(o).render_iteration_at(scene, 0, 0.5, image, drops), std::invalid_argument);
+    o.pixel_passes = 8;
+    CHECK_NOTHROW(SegmentFiltering<Scn>(o).render_iteration_at(scene, 0, 0.5, image, drops));
+  }
   o = {};
   o.next_event = true;  // from camera technique points, which PhF has none of: it draws none
   o.mode = FilteringMode::phf;
@@ -394,8 +410,8 @@ TEST_CASE("every MMIS denominator includes every technique sample of its cluster
   check_voxel_denominators(PhotographedSlab<double>(furnace, 8), false, true, 0.4);
   check_voxel_denominators(PhotographedSphere(8), false, false, 0.4);
   check_voxel_denominators(PhotographedSphere(8), true, true, 0.4);
-  // The second of two pixel passes: its light paths are half the iteration's.
-  check_voxel_denominators(PhotographedSphere(12), true, true, 0.4, 2, 1);
+  // The second of two pixel passes (81 pixels: 41 and 40): its light paths are half the iteration's.
+  check_voxel_denominators(PhotographedSphere(9), true, true, 0.4, 2, 1);
 }
 
 TEST_CASE("segment filtering: the pixel passes of an iteration draw every pixel once, from streams of their own",
@@ -408,11 +424,14 @@ TEST_CASE("segment filtering: the pixel passes of an iteration draw every pixel 
   const SegmentFiltering<PhotographedSphere> filter(o);
   std::vector<int> sensor_segments(64, 0);
   std::vector<std::vector<double>> light_starts(3);  // the x coordinate of each light start's x
+  std::uint64_t light_paths = 0;
   for (std::uint32_t pass = 0; pass < 3; ++pass) {
     auto ctx = filter.context(scene, 4, pass);
     filter.build_pool(ctx);
     const std::uint64_t pixels = pass == 0 ? 22 : 21;
-    CHECK(ctx.light_paths() == 2 * pixels);
+    CHECK(ctx.pixels() == pixels);
+    CHECK((ctx.light_paths() == 42 || ctx.light_paths() == 43));  // a third of the iteration's 128
+    light_paths += ctx.light_paths();
     for (std::size_t i = 0; i < ctx.pool.size(); ++i) {
       const auto f = ctx.pool.flags[i];
       if (f & filtering::sensor_segment) {
@@ -425,6 +444,8 @@ TEST_CASE("segment filtering: the pixel passes of an iteration draw every pixel 
     CHECK(light_starts[pass].size() > pixels);  // most of the 2 x pixels light paths start
     std::sort(light_starts[pass].begin(), light_starts[pass].end());
   }
+  CHECK(light_paths == 128);
+  CHECK_THROWS_AS(filter.context(scene, 4, 3), std::invalid_argument);  // there is no fourth pass
   for (std::uint32_t p = 0; p < 64; ++p) CHECK(sensor_segments[p] == 1);  // the camera inside the sphere sees it everywhere
   for (std::uint32_t a = 0; a < 3; ++a)
     for (std::uint32_t b = a + 1; b < 3; ++b) {
@@ -601,7 +622,8 @@ TEST_CASE("a user's own technique joins the technique set: its density enters ev
   for (const auto& [mode, support, passes] : variants) {
     {
       const std::uint32_t pass = passes - 1;
-      const double draws = std::round(per_pixel * 256 / passes);
+      const double all_draws = std::round(per_pixel * 256);  // the iteration's, half of them in each of two passes
+      const double draws = passes == 1 ? all_draws : all_draws / 2;
       FilteringOptions<double> o;
       o.mode = mode;
       o.max_length = 5;

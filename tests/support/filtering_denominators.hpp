@@ -67,14 +67,17 @@ std::pair<bool, bool> kept_or_dirac(const Pool& pool, std::uint32_t s) {
   return {kept, dirac_end};
 }
 
-/// N_L of pass `pass` of an iteration (FilteringOptions::pixel_passes), counted here: the
-/// method's light paths per pixel (none for MVF) times the pixels p with p mod passes = pass, rounded.
+/// N_L of pass `pass` of an iteration (FilteringOptions::pixel_passes), dealt out here: the
+/// iteration's light paths per pixel (none for MVF) x #pixels, rounded, dealt one by one to the
+/// passes in turn.
 template <class Filter, class Scn>
 double light_paths_of_pass(const Filter& filter, const Scn& scene, std::uint32_t pass) {
   const std::uint32_t passes = filter.options().pixel_passes;
-  std::uint64_t pixels = 0;
-  for (std::uint32_t p = 0; p < scene.sensor().pixel_count(); ++p) pixels += p % passes == pass ? 1 : 0;
-  return double(std::llround(filtering::technique_set(filter.options()).light_paths_per_pixel * double(pixels)));
+  const auto total = std::llround(filtering::technique_set(filter.options()).light_paths_per_pixel *
+                                  double(scene.sensor().pixel_count()));
+  std::uint64_t dealt = 0;
+  for (long long i = 0; i < total; ++i) dealt += i % passes == pass ? 1 : 0;
+  return double(dealt);
 }
 
 /// `kernel(end, start)` is the kernel value joining the end y_t of one pooled segment to the

@@ -30,6 +30,7 @@
 #include <chrono>
 #include <cstdint>
 #include <stdexcept>
+#include <string>
 #include <tuple>
 #include <utility>
 #include <vector>
@@ -61,8 +62,8 @@ class SegmentFiltering {
   }
   [[nodiscard]] const FilteringOptions<T>& options() const noexcept { return options_; }
 
-  /// N_L: light paths per iteration of one pass (with pixel_passes, pass k draws beta x its
-  /// own pixels: Context::light_paths).
+  /// N_L: light paths per iteration, beta x #pixels (with pixel_passes, each pass draws its
+  /// share: Context::light_paths).
   [[nodiscard]] std::uint64_t light_path_count(const Scn& scene) const noexcept {
     return filtering::light_path_count(scene, filtering::technique_set(options_));
   }
@@ -80,6 +81,9 @@ class SegmentFiltering {
   /// A fresh context for `iteration` (0-based) and its pass `pass` of pixel_passes, for running
   /// the stages one by one.
   [[nodiscard]] Context context(const Scn& scene, std::uint64_t iteration, std::uint32_t pass = 0) const {
+    if (pass >= options_.pixel_passes)
+      throw std::invalid_argument("segpath::SegmentFiltering: pass " + std::to_string(pass) + " of " +
+                                  std::to_string(options_.pixel_passes) + " pixel passes");
     Context ctx{scene, options_, iteration + 1};
     ctx.pass = pass;
     ctx.passes = options_.pixel_passes;
@@ -115,6 +119,7 @@ class SegmentFiltering {
   template <ParallelFor P = SerialFor>
   FilteringStats render_iteration_at(const Scn& scene, std::uint64_t iteration, T cell, Framebuffer<S>& image,
                                      DropCounters& drops, const P& parallel_for = {}) const {
+    filtering::check_passes(scene, options_);
     FilteringStats stats = render_pass(scene, iteration, 0, cell, image, drops, parallel_for);
     for (std::uint32_t pass = 1; pass < options_.pixel_passes; ++pass)
       stats.add_pass(render_pass(scene, iteration, pass, cell, image, drops, parallel_for));

@@ -9,6 +9,8 @@
 
 #include <cmath>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace segpath::filtering {
@@ -17,6 +19,29 @@ namespace segpath::filtering {
 template <LightSampledScene Scn>
 [[nodiscard]] std::uint64_t light_path_count(const Scn& scene, const TechniqueSet& techniques) noexcept {
   return std::uint64_t(std::llround(techniques.light_paths_per_pixel * double(scene.sensor().pixel_count())));
+}
+
+/// Pass `pass`'s share of an iteration's `total` draws in `passes` passes (FilteringOptions::
+/// pixel_passes): total / passes, and one more for the first total mod passes passes.
+[[nodiscard]] constexpr std::uint64_t pass_share(std::uint64_t total, std::uint32_t pass, std::uint32_t passes) noexcept {
+  return total / passes + (pass < total % passes ? 1 : 0);
+}
+
+/// Throws std::invalid_argument unless every pass of FilteringOptions::pixel_passes has pixels
+/// and, where the method draws light paths, at least one: a pass without light paths would
+/// miss every path only a light start draws (a point light's caustics, all of PhF).
+template <LightSampledScene Scn, Real T>
+void check_passes(const Scn& scene, const FilteringOptions<T>& options) {
+  const std::uint64_t pixels = scene.sensor().pixel_count(), passes = options.pixel_passes;
+  if (passes > pixels)
+    throw std::invalid_argument("segpath::SegmentFiltering: " + std::to_string(passes) + " pixel passes for " +
+                                std::to_string(pixels) + " pixels: use at most one pass per pixel");
+  const TechniqueSet techniques = technique_set(options);
+  const std::uint64_t light_paths = light_path_count(scene, techniques);
+  if (techniques.light_paths_per_pixel > 0 && passes > light_paths)
+    throw std::invalid_argument("segpath::SegmentFiltering: " + std::to_string(passes) + " pixel passes for " +
+                                std::to_string(light_paths) + " light paths an iteration leave passes without light paths: "
+                                "use at most " + std::to_string(light_paths) + " passes, or raise beta");
 }
 
 template <LightSampledScene Scn>
@@ -41,16 +66,16 @@ struct Context {
 
   /// The pixels of this pass, and the i-th of them.
   [[nodiscard]] std::uint32_t pixels() const noexcept {
-    const std::uint32_t all = scene.sensor().pixel_count();
-    return all > pass ? (all - pass + passes - 1) / passes : 0;
+    const std::uint64_t all = scene.sensor().pixel_count();
+    return all > pass ? std::uint32_t((all - pass + passes - 1) / passes) : 0;
   }
   [[nodiscard]] std::uint32_t pixel(std::uint32_t i) const noexcept { return pass + i * passes; }
   /// The random-stream index of this pass's i-th draw of an unconditional technique (light
   /// paths, the user's techniques, bridges): the passes of an iteration draw disjoint streams.
   [[nodiscard]] std::uint64_t draw_index(std::uint64_t i) const noexcept { return i * passes + pass; }
-  /// N_L: light paths of this pass, beta x its pixels.
+  /// N_L: light paths of this pass, its share of the iteration's beta x #pixels (pass_share).
   [[nodiscard]] std::uint64_t light_paths() const noexcept {
-    return std::uint64_t(std::llround(techniques.light_paths_per_pixel * double(pixels())));
+    return pass_share(light_path_count(scene, techniques), pass, passes);
   }
 };
 

@@ -39,12 +39,14 @@ struct FilteringTechnique {
 
 namespace filtering {
 
-/// N_u: the technique's draws in the context's pass of an iteration (per_pixel x its pixels).
+/// N_u: the technique's draws in the context's pass, its share (pass_share) of the iteration's
+/// per_pixel x #pixels.
 template <class Smp, LightSampledScene Scn>
 [[nodiscard]] std::uint64_t draw_count(const FilteringTechnique<Smp>& technique, const Context<Scn>& ctx) {
   if (!(technique.per_pixel > 0) || !std::isfinite(technique.per_pixel))
     throw std::invalid_argument("segpath::FilteringTechnique: per_pixel must be > 0, got " + std::to_string(technique.per_pixel));
-  return std::uint64_t(std::llround(technique.per_pixel * double(ctx.pixels())));
+  const auto draws = std::uint64_t(std::llround(technique.per_pixel * double(ctx.scene.sensor().pixel_count())));
+  return pass_share(draws, ctx.pass, ctx.passes);
 }
 
 /// Draws a user technique's segments into the pool; the k-th technique of the list draws from
