@@ -358,6 +358,12 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
   /// The last iteration's counters (segments, bytes per segment, transfer cache), if any.
   [[nodiscard]] const std::optional<segpath::FilteringStats>& last_stats() const noexcept { return last_stats_; }
 
+  /// Throws std::invalid_argument where --passes leaves a pass without pixels or light paths
+  /// in `scene` (segpath::filtering::check_passes), before anything renders.
+  static void check_passes(const RenderScene& scene, const MethodOptions& o) {
+    segpath::filtering::check_passes(scene, filtering_options(o));
+  }
+
  private:
   static segpath::FilteringOptions<T> filtering_options(const MethodOptions& o) {
     segpath::FilteringOptions<T> f;  // the library's defaults, but for what the command line set

@@ -120,10 +120,11 @@ struct PeakEstimate {
 };
 
 /// The peak memory a render will need, estimated before it starts. Every method keeps a few
-/// images of the full size; the filtering methods also pool every segment of an iteration, whose
-/// number per pixel one iteration of a pilot render 64 pixels wide (same scene, method and
-/// options) measures, plus their transfer cache up to its budget (scaled linearly: with a fixed
-/// --radius the full render's clusters are fuller and the cache nearer its budget). Measured against the peak
+/// images of the full size; the filtering methods also pool every segment of an iteration's pass
+/// (--passes), whose number per pixel one iteration of a pilot render 64 pixels wide (same scene,
+/// method and options, one pass) measures, plus their transfer cache up to its budget (scaled
+/// linearly: with a fixed --radius the full render's clusters are fuller and the cache nearer its
+/// budget; a pass's pool has 1 / passes of the pairs or fewer). Measured against the peak
 /// resident size of BDPF on the four boxes it is 0.99-1.11x (docs/figures.md, session 18).
 PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo) {
   const double pixels = double(o.width) * double(o.height);
@@ -139,6 +140,7 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo)
   const renderer::RenderScene scene = load_scene(pilot);
   renderer::MethodOptions quiet = mo;
   quiet.print_stats = false;
+  quiet.passes = 1;  // (the pilot's pixels may be fewer than the passes)
   auto method = renderer::make_method(o.method, quiet);
   renderer::Stats stats;
   std::optional<segpath::FilteringStats> f;
@@ -152,13 +154,12 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo)
       *method);
   if (!f) return estimate;
   const double scale = pixels / (double(pilot.width) * double(pilot.height));
-  // The pool of one pass (the pilot's segments sum over its passes), with the growth of its
-  // per-chunk record lists (measured: ~1.1x the pool).
+  // The pool of one pass, with the growth of its per-chunk record lists (measured: ~1.1x the pool).
   estimate.pool = 1.1 * double(f->segments) * scale * double(f->bytes_per_segment) / double(mo.passes);
   bytes += estimate.pool;
   const double cache_budget = mo.transfer_cache_mib ? double(*mo.transfer_cache_mib) * (1 << 20)
                                                     : double(segpath::FilteringOptions<float>{}.transfer_cache_bytes);
-  estimate.cache = std::min(cache_budget, double(f->transfer_cache_bytes) * scale);  // (the pilot's largest pass)
+  estimate.cache = std::min(cache_budget, double(f->transfer_cache_bytes) * scale / double(mo.passes));
   return estimate;
 }
 
@@ -337,6 +338,15 @@ int run(const Options& o, const renderer::Ranks& ranks) {
         method = renderer::make_method(o.method, mo);
         if (!method) fail("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
         scene.emplace(load_scene(o));
+        if (o.passes != 1 && !std::visit([&](const auto& m) {
+              if constexpr (requires { m.check_passes(*scene, mo); }) {
+                m.check_passes(*scene, mo);
+                return true;
+              } else {
+                return false;
+              }
+            }, *method))
+          fail("--passes applies to mvf, phf and bdpf only, not to " + o.method);
         tbb::global_control pilot_threads(tbb::global_control::max_allowed_parallelism, o.threads);
         const PeakEstimate peak = estimated_peak(o, mo);
         std::uint64_t estimate = peak.total();
@@ -355,9 +365,10 @@ int run(const Options& o, const renderer::Ranks& ranks) {
                          memory_size(std::uint64_t(std::min(limit, 1e19))).c_str());
         }
         if (limit > 0 && double(estimate) > limit) {
-          // The fewest passes whose pool fits beside the images (when any can).
-          const double images = peak.rest - peak.pool, room = limit - images;
-          const double passes = room > 0 ? std::floor(peak.pool * double(mo.passes) / room) + 1 : 0;
+          // The fewest passes whose pool fits beside the images and a fixed --transfer-cache, with
+          // 10 % to spare (the estimate of a render in more passes is not exactly proportional).
+          const double images = peak.rest - peak.pool, room = limit - images - (o.transfer_cache_mib ? peak.cache : 0);
+          const double passes = room > 0 ? std::floor(1.1 * peak.pool * double(mo.passes) / room) + 1 : 0;
           const std::string fewer_passes = filtering && peak.rest >= limit && passes > double(mo.passes) && passes <= 65536
                                                ? "--passes " + std::to_string(std::uint64_t(passes)) + ", "
                                                : "";

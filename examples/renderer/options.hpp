@@ -237,13 +237,13 @@ inline std::string image_options(const Options& o) {
   line("bridges", o.bridges ? "on" : "off");
   line("next-event", o.next_event ? "on" : "off");
   line("weighting", o.weighting);
-  if (o.passes != 1) line("passes", std::to_string(o.passes));  // (absent from checkpoints of one pass)
   if (ends_with_obj(o.scene)) {
     line("camera-position", o.camera_position);
     line("camera-target", o.camera_target);
     line("camera-up", o.camera_up);
     line("fov", number(o.fov));
   }
+  if (o.passes != 1) line("passes", std::to_string(o.passes));  // last: absent from checkpoints of one pass
   return text;
 }
 
