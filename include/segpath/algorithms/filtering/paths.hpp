@@ -31,7 +31,7 @@ inline constexpr std::size_t path_chunks = 64;
 /// density counts every camera technique point).
 template <LightSampledScene Scn, class R>
 void add_next_event(const Scn& scene, std::uint32_t source, R& rng,
-                    std::vector<Record<typename Scn::Scalar, typename Scn::Spectrum>>& out) {
+                    RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Vec2<T> u = uniform2<T>(rng);
@@ -62,7 +62,7 @@ void add_next_event(const Scn& scene, std::uint32_t source, R& rng,
 /// to max_length segments (delta bounces count), PhF keeps only the sensor segment.
 template <LightSampledScene Scn>
 void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
-                       std::vector<Record<typename Scn::Scalar, typename Scn::Spectrum>>& out) {
+                       RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Scn& scene = ctx.scene;
@@ -148,7 +148,7 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
 /// predecessors (N33) from each non-delta sensor end; it ends at a delta surface.
 template <LightSampledScene Scn>
 void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
-                      std::vector<Record<typename Scn::Scalar, typename Scn::Spectrum>>& out) {
+                      RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Scn& scene = ctx.scene;
@@ -253,7 +253,7 @@ void add_bridges(Context<Scn>& ctx, const P& parallel_for) {
   }
   pool.bridge_targets = targets.size();
   if (targets.empty()) return;
-  std::vector<std::vector<Record<T, S>>> bridges(path_chunks);
+  std::vector<RecordList<T, S>> bridges(path_chunks);
   parallel_for(path_chunks, [&](std::size_t c) {
     const std::size_t j0 = sources.size() * c / path_chunks, j1 = sources.size() * (c + 1) / path_chunks;
     for (std::size_t j = j0; j < j1; ++j) {
@@ -287,7 +287,7 @@ void draw_paths(Context<Scn>& ctx, const P& parallel_for) {
   auto& pool = ctx.pool;
   const std::uint32_t pixels = ctx.pixels();
   const std::uint64_t light_paths = ctx.light_paths();
-  std::vector<std::vector<Record<T, S>>> camera(path_chunks), light(path_chunks);
+  std::vector<RecordList<T, S>> camera(path_chunks), light(path_chunks);
   parallel_for(path_chunks, [&](std::size_t c) {
     const std::uint64_t p0 = pixels * c / path_chunks, p1 = pixels * (c + 1) / path_chunks;
     for (std::uint64_t p = p0; p < p1; ++p) trace_camera_path(ctx, ctx.pixel(std::uint32_t(p)), camera[c]);

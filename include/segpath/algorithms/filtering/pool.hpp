@@ -9,6 +9,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <type_traits>
 #include <vector>
 
 namespace segpath::filtering {
@@ -72,10 +74,42 @@ struct Record {
   bool next_event = false;
 };
 
+/// One generator's records before pooling, in blocks that never move: no copies as the list
+/// grows, and no outgrown buffers left as holes in the heap that the pool and the propagation's
+/// large arrays cannot reuse (a std::vector's doubling did; docs/figures.md, session 27).
+template <Real T, Spectrum S>
+class RecordList {
+ public:
+  using value_type = Record<T, S>;
+  static_assert(std::is_trivially_copyable_v<value_type> && std::is_trivially_destructible_v<value_type>);
+  /// Records per block (~0.6 MB in float).
+  static constexpr std::size_t block_size = 4096;
+
+  RecordList() = default;
+  RecordList(RecordList&&) noexcept = default;
+  RecordList& operator=(RecordList&&) noexcept = default;
+
+  void push_back(const value_type& r) {
+    if (size_ % block_size == 0) blocks_.emplace_back(std::allocator<value_type>{}.allocate(block_size));
+    std::construct_at(blocks_.back().get() + size_ % block_size, r);
+    ++size_;
+  }
+  [[nodiscard]] value_type& operator[](std::size_t i) noexcept { return blocks_[i / block_size][i % block_size]; }
+  [[nodiscard]] const value_type& operator[](std::size_t i) const noexcept { return blocks_[i / block_size][i % block_size]; }
+  [[nodiscard]] std::size_t size() const noexcept { return size_; }
+
+ private:
+  struct Deallocate {
+    void operator()(value_type* block) const noexcept { std::allocator<value_type>{}.deallocate(block, block_size); }
+  };
+  std::vector<std::unique_ptr<value_type[], Deallocate>> blocks_;
+  std::size_t size_ = 0;
+};
+
 /// Appends the generators' records, chunk after chunk (in parallel over chunks); a record's
 /// parent indexes its own chunk, the pool's the pool.
 template <Real T, Spectrum S, ParallelFor P>
-void append(Pool<T, S>& pool, const std::vector<std::vector<Record<T, S>>>& chunks, const P& parallel_for) {
+void append(Pool<T, S>& pool, const std::vector<RecordList<T, S>>& chunks, const P& parallel_for) {
   std::vector<std::size_t> base(chunks.size() + 1, pool.size());
   for (std::size_t c = 0; c < chunks.size(); ++c) base[c + 1] = base[c] + chunks[c].size();
   const std::size_t total = base.back();
@@ -86,7 +120,8 @@ void append(Pool<T, S>& pool, const std::vector<std::vector<Record<T, S>>>& chun
   std::vector<std::uint64_t> next_event(chunks.size(), 0);
   parallel_for(chunks.size(), [&](std::size_t c) {
     std::size_t i = base[c];
-    for (const Record<T, S>& r : chunks[c]) {
+    for (std::size_t k = 0; k < chunks[c].size(); ++k) {
+      const Record<T, S>& r = chunks[c][k];
       pool.segments[i] = r.segment;
       pool.first_direction[i] = r.first_direction;
       pool.last_direction[i] = r.last_direction;

@@ -59,7 +59,7 @@ void draw_extra(Context<Scn>& ctx, const FilteringTechnique<Smp>& technique, std
   const Scn& scene = ctx.scene;
   const std::uint64_t draws = draw_count(technique, ctx);
   constexpr std::size_t chunks = 64;
-  std::vector<std::vector<Record<T, S>>> records(chunks);
+  std::vector<RecordList<T, S>> records(chunks);
   const std::uint64_t salt = ctx.options.seed ^ (0x6578747261ULL /* "extra" */ + (k << 40));
   parallel_for(chunks, [&](std::size_t c) {
     for (std::uint64_t i = draws * c / chunks, e = draws * (c + 1) / chunks; i < e; ++i) {
