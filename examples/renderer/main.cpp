@@ -124,8 +124,8 @@ struct PeakEstimate {
 /// (--passes), whose number per pixel one iteration of a pilot render 64 pixels wide (same scene,
 /// method and options, one pass) measures, plus their transfer cache up to its budget (scaled
 /// linearly: with a fixed --radius the full render's clusters are fuller and the cache nearer its
-/// budget; a pass's pool has 1 / passes of the pairs or fewer). Measured against the peak
-/// resident size of BDPF on the four boxes it is 0.99-1.11x (docs/figures.md, session 18).
+/// budget; a pass's pool has 1 / passes of the pairs or fewer). docs/figures.md compares it with
+/// the peak resident size.
 PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo) {
   const double pixels = double(o.width) * double(o.height);
   PeakEstimate estimate;
@@ -154,7 +154,7 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo)
       *method);
   if (!f) return estimate;
   const double scale = pixels / (double(pilot.width) * double(pilot.height));
-  // The pool of one pass, with the growth of its per-chunk record lists (measured: ~1.1x the pool).
+  // The pool of one pass, and 10 % for the heap's holes around it (docs/figures.md, session 27).
   estimate.pool = 1.1 * double(f->segments) * scale * double(f->bytes_per_segment) / double(mo.passes);
   bytes += estimate.pool;
   const double cache_budget = mo.transfer_cache_mib ? double(*mo.transfer_cache_mib) * (1 << 20)

@@ -143,6 +143,7 @@ TEST_CASE("segment filtering: a record list keeps every record, in order, across
   for (std::size_t i = 0; i < n; ++i) wrong += list[i].pixel != i || list[i].geometry != double(i) + 0.5;
   CHECK(wrong == 0);
   List moved = std::move(list);
+  CHECK(list.size() == 0);  // NOLINT(bugprone-use-after-move): a moved-from list is empty
   CHECK(moved.size() == n);
   CHECK(moved[n - 1].pixel == n - 1);
   moved[List::block_size].pixel = 7;  // a write lands where a read finds it

@@ -3,14 +3,13 @@
 // its ends offer (a technique sample is a pooled segment whose end was continued).
 #pragma once
 
+#include "segpath/algorithms/filtering/record_list.hpp"
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/segment.hpp"
 #include "segpath/core/spectrum.hpp"
 
 #include <cstddef>
 #include <cstdint>
-#include <memory>
-#include <type_traits>
 #include <vector>
 
 namespace segpath::filtering {
@@ -29,8 +28,6 @@ enum PoolFlag : std::uint16_t {
   extra_technique = 512,    ///< drawn by a technique of the user's list (FilteringTechnique)
   kept_density = 1024,      ///< a chain only its light start draws (kept_chain): its D is the draw's, Record::density
 };
-
-inline constexpr std::uint32_t no_parent = 0xffffffffu;
 
 /// One iteration's segments, structure of arrays (memory O(#segments)).
 template <Real T, Spectrum S>
@@ -55,55 +52,6 @@ struct Pool {
     return sizeof(Segment<T>) + 2 * sizeof(Vec3<T>) + 2 * sizeof(S) + 3 * sizeof(T) + 2 * sizeof(std::uint32_t) +
            2 * sizeof(std::uint16_t);
   }
-};
-
-/// A segment as a technique produces it, before pooling.
-template <Real T, Spectrum S>
-struct Record {
-  Segment<T> segment;
-  Vec3<T> first_direction, last_direction;
-  S chain;
-  T geometry = 0, sensor_weight = 0;
-  /// Only for a kept chain (kept_chain): its MMIS denominator, N_L times its first segment's
-  /// density; every other segment's is computed from the pool (densities.hpp).
-  T density = 0;
-  std::uint32_t pixel = 0;
-  std::uint32_t parent = no_parent;  ///< index in the same generator's record list
-  std::uint16_t flags = 0;
-  std::uint16_t pieces = 1;  ///< Pool::pieces
-  bool next_event = false;
-};
-
-/// One generator's records before pooling, in blocks that never move: no copies as the list
-/// grows, and no outgrown buffers left as holes in the heap that the pool and the propagation's
-/// large arrays cannot reuse (a std::vector's doubling did; docs/figures.md, session 27).
-template <Real T, Spectrum S>
-class RecordList {
- public:
-  using value_type = Record<T, S>;
-  static_assert(std::is_trivially_copyable_v<value_type> && std::is_trivially_destructible_v<value_type>);
-  /// Records per block (~0.6 MB in float).
-  static constexpr std::size_t block_size = 4096;
-
-  RecordList() = default;
-  RecordList(RecordList&&) noexcept = default;
-  RecordList& operator=(RecordList&&) noexcept = default;
-
-  void push_back(const value_type& r) {
-    if (size_ % block_size == 0) blocks_.emplace_back(std::allocator<value_type>{}.allocate(block_size));
-    std::construct_at(blocks_.back().get() + size_ % block_size, r);
-    ++size_;
-  }
-  [[nodiscard]] value_type& operator[](std::size_t i) noexcept { return blocks_[i / block_size][i % block_size]; }
-  [[nodiscard]] const value_type& operator[](std::size_t i) const noexcept { return blocks_[i / block_size][i % block_size]; }
-  [[nodiscard]] std::size_t size() const noexcept { return size_; }
-
- private:
-  struct Deallocate {
-    void operator()(value_type* block) const noexcept { std::allocator<value_type>{}.deallocate(block, block_size); }
-  };
-  std::vector<std::unique_ptr<value_type[], Deallocate>> blocks_;
-  std::size_t size_ = 0;
 };
 
 /// Appends the generators' records, chunk after chunk (in parallel over chunks); a record's
