@@ -363,6 +363,10 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
   static void check_passes(const RenderScene& scene, const MethodOptions& o) {
     segpath::filtering::check_passes(scene, filtering_options(o));
   }
+  /// The most passes check_passes accepts for `scene` (segpath::filtering::max_passes).
+  static std::uint64_t max_passes(const RenderScene& scene, const MethodOptions& o) {
+    return segpath::filtering::max_passes(scene, filtering_options(o));
+  }
 
  private:
   static segpath::FilteringOptions<T> filtering_options(const MethodOptions& o) {

@@ -368,8 +368,15 @@ int run(const Options& o, const renderer::Ranks& ranks) {
           // The fewest passes whose pool fits beside the images and a fixed --transfer-cache, with
           // 10 % to spare (the estimate of a render in more passes is not exactly proportional).
           const double images = peak.rest - peak.pool, room = limit - images - (o.transfer_cache_mib ? peak.cache : 0);
+          // Named only where the scene allows that many (check_passes would refuse it again).
           const double passes = room > 0 ? std::floor(1.1 * peak.pool * double(mo.passes) / room) + 1 : 0;
-          const std::string fewer_passes = filtering && peak.rest >= limit && passes > double(mo.passes) && passes <= 65536
+          const double allowed = std::visit([&](const auto& m) -> double {
+            if constexpr (requires { m.max_passes(*scene, mo); })
+              return double(std::min<std::uint64_t>(m.max_passes(*scene, mo), 65536));
+            else
+              return 0;
+          }, *method);
+          const std::string fewer_passes = filtering && peak.rest >= limit && passes > double(mo.passes) && passes <= allowed
                                                ? "--passes " + std::to_string(std::uint64_t(passes)) + ", "
                                                : "";
           fail("this render needs about " + memory_size(estimate) + ", more than " +

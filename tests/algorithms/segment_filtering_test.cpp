@@ -480,6 +480,61 @@ TEST_CASE("segment filtering: the pixel passes of an iteration draw every pixel 
     }
 }
 
+TEST_CASE("segment filtering: a pass's stats merge field by field, counts and seconds summed, memory the larger",
+          "[algorithms]") {
+  // The structured bindings name every field of FilteringStats: a field added to it stops this
+  // test compiling until it is listed here, with the rule add_pass must merge it by.
+  const auto filled = [](double base) {
+    FilteringStats s;
+    auto& [segments, camera, light, bridge, clusters, next_event, extra, junctions, factorised_camera, factorised_light,
+           factorised_transfer, pair_evaluations, cell_size, bytes_per_segment, transfer_cache, propagation_copy, lagged,
+           forced_values, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = s;
+    std::uint64_t count = static_cast<std::uint64_t>(base);
+    for (std::uint64_t* c : {&segments, &camera, &light, &bridge, &clusters, &next_event, &extra, &junctions,
+                             &factorised_camera, &factorised_light, &factorised_transfer, &pair_evaluations})
+      *c = count++;
+    cell_size = 0.25;  // one iteration: every pass has the same cell
+    std::size_t bytes = static_cast<std::size_t>(base) * 3;
+    for (std::size_t* b : {&bytes_per_segment, &transfer_cache, &propagation_copy, &lagged, &forced_values}) *b = bytes++;
+    double seconds = base / 8;
+    for (double* t : {&paths_s, &support_s, &densities_s, &propagation_s, &gather_s}) *t = (seconds += 0.5);
+    passes = static_cast<std::uint32_t>(base) % 3 + 1;
+    return s;
+  };
+  const FilteringStats a = filled(10), b = filled(100);
+  for (const auto& [first, second] : {std::pair{a, b}, std::pair{b, a}}) {
+    FilteringStats m = first;
+    m.add_pass(second);
+    const auto& [segments, camera, light, bridge, clusters, next_event, extra, junctions, factorised_camera, factorised_light,
+                 factorised_transfer, pair_evaluations, cell_size, bytes_per_segment, transfer_cache, propagation_copy, lagged,
+                 forced_values, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = m;
+    CHECK(segments == a.segments + b.segments);
+    CHECK(camera == a.camera_segments + b.camera_segments);
+    CHECK(light == a.light_segments + b.light_segments);
+    CHECK(bridge == a.bridge_segments + b.bridge_segments);
+    CHECK(clusters == a.clusters + b.clusters);
+    CHECK(next_event == a.next_event_segments + b.next_event_segments);
+    CHECK(extra == a.extra_segments + b.extra_segments);
+    CHECK(junctions == a.junctions + b.junctions);
+    CHECK(factorised_camera == a.factorised_camera_clusters + b.factorised_camera_clusters);
+    CHECK(factorised_light == a.factorised_light_clusters + b.factorised_light_clusters);
+    CHECK(factorised_transfer == a.factorised_transfer_clusters + b.factorised_transfer_clusters);
+    CHECK(pair_evaluations == a.pair_evaluations + b.pair_evaluations);
+    CHECK(cell_size == 0.25);
+    CHECK(bytes_per_segment == b.bytes_per_segment);  // b's are the larger
+    CHECK(transfer_cache == b.transfer_cache_bytes);
+    CHECK(propagation_copy == b.propagation_copy_bytes);
+    CHECK(lagged == b.lagged_bytes);
+    CHECK(forced_values == b.forced_value_bytes);
+    CHECK(paths_s == a.paths_seconds + b.paths_seconds);
+    CHECK(support_s == a.support_seconds + b.support_seconds);
+    CHECK(densities_s == a.densities_seconds + b.densities_seconds);
+    CHECK(propagation_s == a.propagation_seconds + b.propagation_seconds);
+    CHECK(gather_s == a.gather_seconds + b.gather_seconds);
+    CHECK(passes == a.passes + b.passes);
+  }
+}
+
 TEST_CASE("every MMIS denominator includes every technique sample of its disk", "[algorithms]") {
   check_disk_denominators(PhotographedSlab<double>(furnace, 8), false, false, 0.25);
   check_disk_denominators(PhotographedSlab<double>(furnace, 8), false, true, 0.25);

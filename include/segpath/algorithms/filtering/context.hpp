@@ -7,6 +7,7 @@
 #include "segpath/algorithms/filtering/technique_set.hpp"
 #include "segpath/concepts/scene.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <stdexcept>
@@ -27,21 +28,29 @@ template <LightSampledScene Scn>
   return total / passes + (pass < total % passes ? 1 : 0);
 }
 
-/// Throws std::invalid_argument unless every pass of FilteringOptions::pixel_passes has pixels
-/// and, where the method draws light paths, at least one: a pass without light paths would
-/// miss every path only a light start draws (a point light's caustics, all of PhF).
+/// The most pixel passes (FilteringOptions::pixel_passes) `scene` allows: one pixel each and,
+/// where the method draws light paths, at least one light path each (a pass without light paths
+/// would miss every path only a light start draws: a point light's caustics, all of PhF).
+template <LightSampledScene Scn, Real T>
+[[nodiscard]] std::uint64_t max_passes(const Scn& scene, const FilteringOptions<T>& options) noexcept {
+  const std::uint64_t pixels = scene.sensor().pixel_count();
+  const TechniqueSet techniques = technique_set(options);
+  return techniques.light_paths_per_pixel > 0 ? std::min(pixels, light_path_count(scene, techniques)) : pixels;
+}
+
+/// Throws std::invalid_argument, naming the bound, where FilteringOptions::pixel_passes exceeds
+/// max_passes(scene, options).
 template <LightSampledScene Scn, Real T>
 void check_passes(const Scn& scene, const FilteringOptions<T>& options) {
   const std::uint64_t pixels = scene.sensor().pixel_count(), passes = options.pixel_passes;
+  if (passes <= max_passes(scene, options)) return;
   if (passes > pixels)
     throw std::invalid_argument("segpath::SegmentFiltering: " + std::to_string(passes) + " pixel passes for " +
                                 std::to_string(pixels) + " pixels: use at most one pass per pixel");
-  const TechniqueSet techniques = technique_set(options);
-  const std::uint64_t light_paths = light_path_count(scene, techniques);
-  if (techniques.light_paths_per_pixel > 0 && passes > light_paths)
-    throw std::invalid_argument("segpath::SegmentFiltering: " + std::to_string(passes) + " pixel passes for " +
-                                std::to_string(light_paths) + " light paths an iteration leave passes without light paths: "
-                                "use at most " + std::to_string(light_paths) + " passes, or raise beta");
+  const std::uint64_t light_paths = light_path_count(scene, technique_set(options));
+  throw std::invalid_argument("segpath::SegmentFiltering: " + std::to_string(passes) + " pixel passes for " +
+                              std::to_string(light_paths) + " light paths an iteration leave passes without light paths: "
+                              "use at most " + std::to_string(light_paths) + " passes, or raise beta");
 }
 
 template <LightSampledScene Scn>
