@@ -33,9 +33,10 @@ enum class VcmMode : std::uint8_t { bdpt, ppm, bpm, vcm };
 }
 
 /// The automatic initial merge radius in average pixel footprints (sensors/pixel_footprint.hpp):
-/// 2, the best geometric mean of relMSE over SmallVCM's four boxes at 10 s in a sweep over 0.5,
-/// 1, 2 and 4 (docs/figures.md).
-inline constexpr double vcm_radius_in_footprints = 2.0;
+/// 1.25. In a sweep over SmallVCM's four boxes at 10 s (docs/figures.md, session 28) it is the
+/// largest radius whose relMSE is below SmallVCM's VCM on every box: a point light's caustics
+/// (box 2) want small radii, the sun's (box 0) large ones, and 2 footprints loses box 2.
+inline constexpr double vcm_radius_in_footprints = 1.25;
 
 struct VcmOptions {
   VcmMode mode = VcmMode::vcm;
