@@ -33,9 +33,9 @@ enum class VcmMode : std::uint8_t { bdpt, ppm, bpm, vcm };
 }
 
 /// The automatic initial merge radius in average pixel footprints (sensors/pixel_footprint.hpp):
-/// 1.25. In a sweep over SmallVCM's four boxes at 10 s (docs/figures.md, session 28) it is the
-/// largest radius whose relMSE is below SmallVCM's VCM on every box: a point light's caustics
-/// (box 2) want small radii, the sun's (box 0) large ones, and 2 footprints loses box 2.
+/// 1.25. In a sweep over SmallVCM's four boxes at 10 s (docs/figures.md, session 28) its relMSE
+/// was below SmallVCM's VCM on every box, where 2 footprints (the best geometric mean) lost box 2
+/// by 1.2x: a point light's caustics want small radii, the sun's (box 0) large ones.
 inline constexpr double vcm_radius_in_footprints = 1.25;
 
 struct VcmOptions {
