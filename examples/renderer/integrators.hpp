@@ -295,7 +295,7 @@ class LtMethod : public MethodRun<segpath::LightTracer<ThreadCountingScene>> {
 
 /// BDPT, PPM, BPM and VCM (segpath::VertexConnectionMerging, one implementation with modes):
 /// one camera path per pixel and beta x #pixels light paths per iteration; the merge radius
-/// starts at --radius (default: the library's segpath::vcm_radius_in_footprints x the average
+/// starts at --radius (default: the library's segpath::radius_in_footprints(mode) x the average
 /// pixel footprint) and shrinks by --alpha.
 template <segpath::VcmMode Mode>
 class VcmMethod : public MethodRun<segpath::VertexConnectionMerging<ThreadCountingScene>> {

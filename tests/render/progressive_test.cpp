@@ -102,7 +102,13 @@ TEST_CASE("kernel methods get an automatic kernel from the pixel footprint, shri
   CHECK(footprint < 1.0f / 3);
   VcmOptions v;
   const ProgressiveRender vcm(scene, VertexConnectionMerging<Sphere>(v), 6, 6);
-  CHECK(vcm.kernel_schedule().initial() == Approx(vcm_radius_in_footprints * footprint));
+  CHECK(vcm.kernel_schedule().initial() == Approx(radius_in_footprints(VcmMode::vcm) * footprint));
+  for (const VcmMode mode : {VcmMode::ppm, VcmMode::bpm}) {
+    VcmOptions m;
+    m.mode = mode;
+    CHECK(ProgressiveRender(scene, VertexConnectionMerging<Sphere>(m), 6, 6).kernel_schedule().initial() ==
+          Approx(radius_in_footprints(mode) * footprint));
+  }
   CHECK(vcm.kernel_schedule().at(1) == Approx(vcm.kernel_schedule().at(0) * std::sqrt((1 + v.alpha) / 2)));
   v.initial_radius = 0.125;
   CHECK(ProgressiveRender(scene, VertexConnectionMerging<Sphere>(v), 6, 6).kernel_schedule().initial() == 0.125f);

@@ -87,11 +87,11 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
   [[nodiscard]] const VcmOptions& options() const noexcept { return options_; }
 
   /// The merge radius of every iteration: none for bdpt; else from initial_radius (or
-  /// vcm_radius_in_footprints pixel footprints when it is 0), shrinking by ProgressiveRadius.
+  /// radius_in_footprints(mode) pixel footprints when it is 0), shrinking by ProgressiveRadius.
   [[nodiscard]] KernelSchedule<T> kernel_schedule(const Scn& scene) const {
     if (options_.mode == VcmMode::bdpt) return {};
     const T initial = options_.initial_radius > 0 ? T(options_.initial_radius)
-                                                  : T(vcm_radius_in_footprints) * pixel_footprint(scene, T(5e-3));
+                                                  : T(radius_in_footprints(options_.mode)) * pixel_footprint(scene, T(5e-3));
     return KernelSchedule<T>(initial, T(options_.alpha));
   }
 

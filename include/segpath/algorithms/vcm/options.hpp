@@ -32,17 +32,27 @@ enum class VcmMode : std::uint8_t { bdpt, ppm, bpm, vcm };
   return "unknown";
 }
 
-/// The automatic initial merge radius in average pixel footprints (sensors/pixel_footprint.hpp):
-/// 1.25. In a sweep over SmallVCM's four boxes at 10 s (docs/figures.md, session 28) its relMSE
-/// was below SmallVCM's VCM on every box, where 2 footprints (the best geometric mean) lost box 2
-/// by 1.2x: a point light's caustics want small radii, the sun's (box 0) large ones.
-inline constexpr double vcm_radius_in_footprints = 1.25;
+/// The automatic initial merge radius of a mode in average pixel footprints
+/// (sensors/pixel_footprint.hpp); sweeps over SmallVCM's four boxes at 10 s in docs/figures.md
+/// (session 28). VCM: 1.25, below SmallVCM's VCM on every box, where 2 (the best geometric mean)
+/// lost box 2 by 1.2x: a point light's caustics want small radii, the sun's (box 0) large ones.
+/// PPM and BPM, which merge everywhere: 2, as their noise at 1.25 is 1.1-2.3x.
+/// BDPT has no merge radius (0).
+[[nodiscard]] constexpr double radius_in_footprints(VcmMode mode) noexcept {
+  switch (mode) {
+    case VcmMode::vcm: return 1.25;
+    case VcmMode::ppm:
+    case VcmMode::bpm: return 2.0;
+    case VcmMode::bdpt: return 0.0;
+  }
+  return 0.0;
+}
 
 struct VcmOptions {
   VcmMode mode = VcmMode::vcm;
   std::size_t max_length = 10;  ///< segments per path, the sensor segment included (>= 1)
   MisHeuristic heuristic = MisHeuristic::power;
-  /// Disk-kernel radius of iteration 0 in scene units; 0 (the default): vcm_radius_in_footprints
+  /// Disk-kernel radius of iteration 0 in scene units; 0 (the default): radius_in_footprints(mode)
   /// average pixel footprints of the scene's sensor (kernel_schedule).
   double initial_radius = 0;
   double alpha = 0.75;           ///< radius schedule r_{i+1}^2 = r_i^2 (i + alpha) / (i + 1), in (0, 1)
