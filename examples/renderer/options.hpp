@@ -229,7 +229,16 @@ inline std::string image_options(const Options& o) {
   line("width", std::to_string(o.width));
   line("height", std::to_string(o.height));
   line("max-length", std::to_string(o.max_length));
-  line("radius", optional(o.radius));
+  // An automatic merge radius names its footprints: a checkpoint written with another default
+  // (VCM's was 2 footprints before session 28) is refused rather than resumed at another radius.
+  const auto radius = [&]() -> std::string {
+    using segpath::VcmMode;
+    if (o.radius) return number(*o.radius);
+    for (const auto& [name, mode] : {std::pair{"ppm", VcmMode::ppm}, std::pair{"bpm", VcmMode::bpm}, std::pair{"vcm", VcmMode::vcm}})
+      if (o.method == name) return "default (" + number(segpath::radius_in_footprints(mode)) + " footprints)";
+    return std::string("default");
+  }();
+  line("radius", radius);
   line("alpha", optional(o.alpha));
   line("beta", optional(o.beta));
   line("roulette-from", o.roulette_from ? std::to_string(*o.roulette_from) : std::string("default"));

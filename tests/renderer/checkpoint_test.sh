@@ -124,6 +124,11 @@ PY
     checkpoint4
     expect_error "--resume ck: written by a render with other options \(--alpha: default in the checkpoint, 0.5 in this render\)" \
       --spp 8 --resume ck --alpha 0.5 ;;
+  automatic_radius)
+    # An automatic radius is recorded with its footprints, so a checkpoint of another default
+    # (VCM's 2 footprints before session 28, recorded as "default") is refused, not resumed.
+    "$render" "${args[@]}" --spp 4 --radius 0.01 --checkpoint ck >/dev/null
+    expect_error "--radius: 0.01 in the checkpoint, default \(1.25 footprints\) in this render" --spp 8 --resume ck ;;
   more_than_spp)
     checkpoint4
     expect_error "it holds 4 iterations, more than --spp 3" --spp 3 --resume ck ;;
