@@ -234,8 +234,8 @@ inline std::string image_options(const Options& o) {
   const auto radius = [&]() -> std::string {
     using segpath::VcmMode;
     if (o.radius) return number(*o.radius);
-    for (const auto& [name, mode] : {std::pair{"ppm", VcmMode::ppm}, std::pair{"bpm", VcmMode::bpm}, std::pair{"vcm", VcmMode::vcm}})
-      if (o.method == name) return "default (" + number(segpath::radius_in_footprints(mode)) + " footprints)";
+    for (const VcmMode mode : {VcmMode::ppm, VcmMode::bpm, VcmMode::vcm})
+      if (o.method == segpath::to_string(mode)) return "default (" + number(segpath::radius_in_footprints(mode)) + " footprints)";
     return std::string("default");
   }();
   line("radius", radius);
