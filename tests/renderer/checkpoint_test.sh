@@ -22,6 +22,18 @@ expect_error() {
   grep -q -E -e "$message" err.txt || fail "expected '$message', got: $(cat err.txt)"
   echo "refused: $(cat err.txt)"
 }
+# Sets ck's trailing checksum (FNV-1a 64 of every byte before it) after a case edited its bytes.
+reseal() {
+  python3 - <<'PY'
+import struct
+data = bytearray(open("ck", "rb").read())
+h = 0xcbf29ce484222325
+for b in data[:-8]:
+    h = ((h ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
+struct.pack_into("<Q", data, len(data) - 8, h)
+open("ck", "wb").write(data)
+PY
+}
 # A finished 4-iteration render's checkpoint.
 checkpoint4() { "$render" "${args[@]}" --spp 4 --checkpoint ck >/dev/null; }
 
@@ -91,12 +103,9 @@ if sys.argv[1] == "wrong_size":
     del data[at + 8 + 8 * 3 + 8 + 8 * 3 + 24: -8]  # keep one pixel (the drop counts' number is read below)
 else:
     struct.pack_into("<II", data, at, 1 << 31, 1 << 30)
-h = 0xcbf29ce484222325
-for b in data[:-8]:
-    h = ((h ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
-struct.pack_into("<Q", data, len(data) - 8, h)
 open("ck", "wb").write(data)
 PY
+    reseal
     expect_error "--resume ck: the checkpoint is corrupt" --spp 8 --resume ck ;;
   missing) expect_error "--resume .*: no such file" --spp 4 --resume nothing.ck ;;
   not_a_checkpoint)
@@ -140,12 +149,9 @@ new = old.replace(b"radius=default (1.25 footprints)\n", b"radius=default\n")
 assert new != old, old
 data[at + 8:at + 8 + length] = new
 struct.pack_into("<Q", data, at, len(new))
-h = 0xcbf29ce484222325
-for b in data[:-8]:
-    h = ((h ^ b) * 0x100000001b3) & 0xFFFFFFFFFFFFFFFF
-struct.pack_into("<Q", data, len(data) - 8, h)
 open("ck", "wb").write(data)
 PY
+    reseal
     expect_error "--radius: default in the checkpoint, default \\(1.25 footprints\\) in this render" --spp 8 --resume ck ;;
   more_than_spp)
     checkpoint4
