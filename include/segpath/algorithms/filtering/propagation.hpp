@@ -121,7 +121,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     const ConditionedMemory memory = propagate_conditioned(support, inputs, iterations, radiance, parallel_for);
     stats.lagged_bytes = memory.lagged;
     stats.forced_value_bytes = memory.forced_values;
-      } else {
+  } else {
     std::vector<std::uint8_t> factorised;
     std::vector<S> diffuse;
     if (ctx.options.factorise) conditioned_factorisation(ctx, support, factorised, diffuse, parallel_for);
