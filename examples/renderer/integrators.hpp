@@ -70,6 +70,18 @@ struct MethodOptions {
   std::uint32_t passes = 1;  ///< mvf, phf, bdpf: FilteringOptions::pixel_passes
 };
 
+/// The settings that decide a method's image, as the method runs with them: what the command
+/// line set, else the library's or the renderer's default, resolved. A checkpoint records these
+/// numbers (image_options), so a render whose defaults have changed since is refused instead of
+/// resumed with other settings. Unset: the method does not use the setting.
+struct ResolvedSettings {
+  std::optional<double> alpha, beta;
+  std::optional<std::size_t> roulette_from;
+  /// The automatic initial kernel (merge radius, voxel size) in average pixel footprints, where
+  /// the method has a kernel and --radius is unset (its size follows from the scene).
+  std::optional<double> kernel_in_footprints;
+};
+
 namespace detail {
 
 /// The process's ray count, kept per thread without synchronisation on the hot path: each
@@ -280,6 +292,12 @@ class PtMethod : public MethodRun<segpath::PathTracer<ThreadCountingScene>> {
   explicit PtMethod(const MethodOptions& o)
       : MethodRun(segpath::PathTracer<ThreadCountingScene>(
             {o.max_length, segpath::MisHeuristic::power, o.roulette_from.value_or(default_roulette_from), o.seed})) {}
+
+  [[nodiscard]] static ResolvedSettings resolved(const MethodOptions& o) {
+    ResolvedSettings r;
+    r.roulette_from = o.roulette_from.value_or(default_roulette_from);
+    return r;
+  }
 };
 
 /// Light tracing (segpath::LightTracer::render_iteration): #pixels light paths per iteration,
@@ -289,8 +307,16 @@ class LtMethod : public MethodRun<segpath::LightTracer<ThreadCountingScene>> {
   static constexpr std::string_view name = "lt";
   static constexpr std::string_view description = "light tracing (splats to the camera)";
 
+  static constexpr std::size_t default_roulette_from = 0;  ///< no Russian roulette by default
+
   explicit LtMethod(const MethodOptions& o)
-      : MethodRun(segpath::LightTracer<ThreadCountingScene>({o.max_length, o.roulette_from.value_or(0), o.seed})) {}
+      : MethodRun(segpath::LightTracer<ThreadCountingScene>({o.max_length, o.roulette_from.value_or(default_roulette_from), o.seed})) {}
+
+  [[nodiscard]] static ResolvedSettings resolved(const MethodOptions& o) {
+    ResolvedSettings r;
+    r.roulette_from = o.roulette_from.value_or(default_roulette_from);
+    return r;
+  }
 };
 
 /// BDPT, PPM, BPM and VCM (segpath::VertexConnectionMerging, one implementation with modes):
@@ -308,6 +334,19 @@ class VcmMethod : public MethodRun<segpath::VertexConnectionMerging<ThreadCounti
                                       : "vertex connection and merging (BDPT + BPM under one MIS)";
 
   explicit VcmMethod(const MethodOptions& o) : MethodRun(segpath::VertexConnectionMerging<ThreadCountingScene>(vcm_options(o))) {}
+
+  /// BDPT merges nothing: no radius, no alpha.
+  [[nodiscard]] static ResolvedSettings resolved(const MethodOptions& o) {
+    const segpath::VcmOptions v = vcm_options(o);
+    ResolvedSettings r;
+    r.beta = v.light_path_factor;
+    r.roulette_from = v.roulette_from;
+    if constexpr (Mode != segpath::VcmMode::bdpt) {
+      r.alpha = v.alpha;
+      if (!(v.initial_radius > 0)) r.kernel_in_footprints = segpath::radius_in_footprints(Mode);
+    }
+    return r;
+  }
 
  private:
   static segpath::VcmOptions vcm_options(const MethodOptions& o) {
@@ -366,6 +405,16 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
   /// The most passes check_passes accepts for `scene` (segpath::filtering::max_passes).
   static std::uint64_t max_passes(const RenderScene& scene, const MethodOptions& o) {
     return segpath::filtering::max_passes(scene, filtering_options(o));
+  }
+
+  /// MVF draws no light paths: no beta. No Russian roulette option.
+  [[nodiscard]] static ResolvedSettings resolved(const MethodOptions& o) {
+    const segpath::FilteringOptions<T> f = filtering_options(o);
+    ResolvedSettings r;
+    r.alpha = double(f.alpha);
+    if constexpr (Mode != segpath::FilteringMode::mvf) r.beta = double(f.light_path_ratio);
+    if (!(f.initial_cell_size > T(0))) r.kernel_in_footprints = segpath::filtering::cell_in_footprints;
+    return r;
   }
 
  private:
@@ -450,6 +499,19 @@ using Method = std::variant<PtMethod, LtMethod, VcmMethod<segpath::VcmMode::bdpt
      ...);
   }(std::make_index_sequence<std::variant_size_v<Method>>{});
   return method;
+}
+
+/// The settings the method called `name` runs with for these options (its `resolved`), or
+/// nullopt for an unknown name.
+[[nodiscard]] inline std::optional<ResolvedSettings> resolved_settings(std::string_view name, const MethodOptions& options) {
+  std::optional<ResolvedSettings> settings;
+  [&]<std::size_t... I>(std::index_sequence<I...>) {
+    ((!settings && name == std::variant_alternative_t<I, Method>::name
+          ? void(settings = std::variant_alternative_t<I, Method>::resolved(options))
+          : void()),
+     ...);
+  }(std::make_index_sequence<std::variant_size_v<Method>>{});
+  return settings;
 }
 
 [[nodiscard]] inline std::string_view method_name(const Method& m) noexcept {

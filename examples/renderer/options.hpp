@@ -210,6 +210,25 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
   return {std::move(o), 0, {}};
 }
 
+/// The library options the command line sets (the method's own defaults where it is silent).
+inline MethodOptions method_options(const Options& o) {
+  MethodOptions mo;
+  mo.seed = o.seed;
+  mo.max_length = o.max_length;
+  mo.radius = o.radius;
+  mo.alpha = o.alpha;
+  mo.beta = o.beta;
+  mo.roulette_from = o.roulette_from;
+  mo.support = o.support == "disk" ? segpath::FilteringSupport::disk : segpath::FilteringSupport::voxel;
+  mo.bridges = o.bridges;
+  mo.next_event = o.next_event;
+  mo.weighting = o.weighting == "paper" ? segpath::FilteringWeighting::paper : segpath::FilteringWeighting::path_conditioned;
+  mo.print_stats = o.stats;
+  mo.transfer_cache_mib = o.transfer_cache_mib;
+  mo.passes = o.passes;
+  return mo;
+}
+
 /// The options that decide a render's image for a given iteration count, as "key=value" lines
 /// in a fixed order: ranks of one render must agree on them, and a checkpoint resumes only a
 /// render with the same ones. (Threads, outputs, --stats, memory and cache options only change
@@ -229,19 +248,18 @@ inline std::string image_options(const Options& o) {
   line("width", std::to_string(o.width));
   line("height", std::to_string(o.height));
   line("max-length", std::to_string(o.max_length));
-  // An automatic merge radius names its footprints: a checkpoint written with another default
-  // (VCM's was 2 footprints before session 28) is refused rather than resumed at another radius.
-  const auto radius = [&]() -> std::string {
-    using segpath::VcmMode;
-    if (o.radius) return number(*o.radius);
-    for (const VcmMode mode : {VcmMode::ppm, VcmMode::bpm, VcmMode::vcm})
-      if (o.method == segpath::to_string(mode)) return "default (" + number(segpath::radius_in_footprints(mode)) + " footprints)";
-    return std::string("default");
-  }();
-  line("radius", radius);
-  line("alpha", optional(o.alpha));
-  line("beta", optional(o.beta));
-  line("roulette-from", o.roulette_from ? std::to_string(*o.roulette_from) : std::string("default"));
+  // Each setting as the method runs with it (ResolvedSettings): a checkpoint written under other
+  // defaults is refused rather than resumed with other settings. An automatic kernel depends on
+  // the scene: it is recorded by its footprints. Settings the method does not use are recorded
+  // as given.
+  const ResolvedSettings r = resolved_settings(o.method, method_options(o)).value_or(ResolvedSettings{});
+  line("radius", o.radius ? number(*o.radius)
+                 : r.kernel_in_footprints ? "default (" + number(*r.kernel_in_footprints) + " footprints)"
+                                          : std::string("default"));
+  line("alpha", optional(r.alpha ? r.alpha : o.alpha));
+  line("beta", optional(r.beta ? r.beta : o.beta));
+  const std::optional<std::size_t> roulette_from = r.roulette_from ? r.roulette_from : o.roulette_from;
+  line("roulette-from", roulette_from ? std::to_string(*roulette_from) : std::string("default"));
   line("support", o.support);
   line("bridges", o.bridges ? "on" : "off");
   line("next-event", o.next_event ? "on" : "off");
@@ -254,25 +272,6 @@ inline std::string image_options(const Options& o) {
   }
   if (o.passes != 1) line("passes", std::to_string(o.passes));  // last: absent from checkpoints of one pass
   return text;
-}
-
-/// The library options the command line sets (the method's own defaults where it is silent).
-inline MethodOptions method_options(const Options& o) {
-  MethodOptions mo;
-  mo.seed = o.seed;
-  mo.max_length = o.max_length;
-  mo.radius = o.radius;
-  mo.alpha = o.alpha;
-  mo.beta = o.beta;
-  mo.roulette_from = o.roulette_from;
-  mo.support = o.support == "disk" ? segpath::FilteringSupport::disk : segpath::FilteringSupport::voxel;
-  mo.bridges = o.bridges;
-  mo.next_event = o.next_event;
-  mo.weighting = o.weighting == "paper" ? segpath::FilteringWeighting::paper : segpath::FilteringWeighting::path_conditioned;
-  mo.print_stats = o.stats;
-  mo.transfer_cache_mib = o.transfer_cache_mib;
-  mo.passes = o.passes;
-  return mo;
 }
 
 }  // namespace renderer

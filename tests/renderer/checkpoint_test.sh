@@ -34,6 +34,23 @@ struct.pack_into("<Q", data, len(data) - 8, h)
 open("ck", "wb").write(data)
 PY
 }
+# Replaces the options line $1 of ck by $2, its length and checksum kept consistent (as a
+# checkpoint written with those options would be).
+rewrite_option() {
+  python3 - "$1" "$2" <<'PY'
+import struct, sys
+data = bytearray(open("ck", "rb").read())
+at = len(b"segpath-checkpoint\n") + 8
+(length,) = struct.unpack_from("<Q", data, at)
+old = bytes(data[at + 8:at + 8 + length])
+new = old.replace(("\n" + sys.argv[1] + "\n").encode(), ("\n" + sys.argv[2] + "\n").encode())
+assert new != old, old
+data[at + 8:at + 8 + length] = new
+struct.pack_into("<Q", data, at, len(new))
+open("ck", "wb").write(data)
+PY
+  reseal
+}
 # A finished 4-iteration render's checkpoint.
 checkpoint4() { "$render" "${args[@]}" --spp 4 --checkpoint ck >/dev/null; }
 
@@ -131,28 +148,21 @@ PY
     expect_error "corrupt|truncated" --spp 8 --resume ck ;;
   other_options)
     checkpoint4
-    expect_error "--resume ck: written by a render with other options \(--alpha: default in the checkpoint, 0.5 in this render\)" \
+    expect_error "--resume ck: written by a render with other options \(--alpha: 0.75 in the checkpoint, 0.5 in this render\)" \
       --spp 8 --resume ck --alpha 0.5 ;;
   automatic_radius)
-    # An automatic radius is recorded with its footprints, so a checkpoint of a version with
-    # another default, whose options say "radius=default" (VCM's 2 footprints before session
-    # 28), is refused rather than resumed at another radius. Its options rewritten so, length and
-    # checksum consistent:
+    # An automatic radius is recorded with its footprints, so a checkpoint written when the
+    # options said only "radius=default" (under another default) is refused rather than resumed
+    # at another radius.
     checkpoint4
-    python3 - <<'PY'
-import struct
-data = bytearray(open("ck", "rb").read())
-at = len(b"segpath-checkpoint\n") + 8
-(length,) = struct.unpack_from("<Q", data, at)
-old = bytes(data[at + 8:at + 8 + length])
-new = old.replace(b"radius=default (1.25 footprints)\n", b"radius=default\n")
-assert new != old, old
-data[at + 8:at + 8 + length] = new
-struct.pack_into("<Q", data, at, len(new))
-open("ck", "wb").write(data)
-PY
-    reseal
+    rewrite_option "radius=default (1.25 footprints)" "radius=default"
     expect_error "--radius: default in the checkpoint, default \\(1.25 footprints\\) in this render" --spp 8 --resume ck ;;
+  changed_default)
+    # Defaults are recorded as the numbers the method runs with: a checkpoint of a version whose
+    # default alpha was 0.5 is refused rather than resumed with this version's.
+    checkpoint4
+    rewrite_option "alpha=0.75" "alpha=0.5"
+    expect_error "--alpha: 0.5 in the checkpoint, 0.75 in this render" --spp 8 --resume ck ;;
   more_than_spp)
     checkpoint4
     expect_error "it holds 4 iterations, more than --spp 3" --spp 3 --resume ck ;;

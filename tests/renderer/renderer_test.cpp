@@ -6,6 +6,7 @@
 #include "cornell.hpp"
 #include "image_io.hpp"
 #include "integrators.hpp"
+#include "options.hpp"
 #include "tbb_parallel.hpp"
 
 #include <segpath/integrand/contribution.hpp>
@@ -353,4 +354,55 @@ TEST_CASE("RMSE and relMSE follow their definitions", "[renderer]") {
   CHECK_THROWS_AS(renderer::compare(a, examples::Image(1, 2)), std::runtime_error);
   r.pixels[1].g = std::nanf("");
   CHECK_THROWS_AS(renderer::compare(a, r), std::runtime_error);
+}
+
+TEST_CASE("a checkpoint's image options record each method's settings as it runs with them", "[renderer]") {
+  renderer::Options o;  // the command line's defaults
+  const auto options_of = [&](const std::string& method) {
+    o.method = method;
+    return renderer::image_options(o);
+  };
+  const auto has = [](const std::string& text, const std::string& line) { return text.find("\n" + line + "\n") != std::string::npos; };
+  const auto number = [](double v) {
+    char s[40];
+    std::snprintf(s, sizeof s, "%.17g", v);
+    return std::string(s);
+  };
+  // PT and LT: Russian roulette from the third segment and never (the renderer's defaults).
+  CHECK(has(options_of("pt"), "roulette-from=3"));
+  CHECK(has(options_of("lt"), "roulette-from=0"));
+  // The VCM family: the library's alpha and beta, roulette from the first scattering, an
+  // automatic radius by its footprints; BDPT merges nothing.
+  const segpath::VcmOptions vcm;
+  for (const segpath::VcmMode mode : {segpath::VcmMode::ppm, segpath::VcmMode::bpm, segpath::VcmMode::vcm}) {
+    const std::string text = options_of(std::string(segpath::to_string(mode)));
+    INFO(text);
+    CHECK(has(text, "alpha=" + number(vcm.alpha)));
+    CHECK(has(text, "beta=" + number(vcm.light_path_factor)));
+    CHECK(has(text, "roulette-from=1"));
+    CHECK(has(text, "radius=default (" + number(segpath::radius_in_footprints(mode)) + " footprints)"));
+  }
+  const std::string bdpt = options_of("bdpt");
+  CHECK(has(bdpt, "alpha=default"));
+  CHECK(has(bdpt, "radius=default"));
+  CHECK(has(bdpt, "beta=" + number(vcm.light_path_factor)));
+  // Filtering: the library's alpha (in the renderer's float) and beta, the voxel by its footprints.
+  const segpath::FilteringOptions<float> filtering;
+  for (const std::string method : {"mvf", "phf", "bdpf"}) {
+    const std::string text = options_of(method);
+    INFO(text);
+    CHECK(has(text, "alpha=" + number(double(filtering.alpha))));
+    CHECK(has(text, "beta=" + (method == "mvf" ? std::string("default") : number(double(filtering.light_path_ratio)))));
+    CHECK(has(text, "radius=default (" + number(segpath::filtering::cell_in_footprints) + " footprints)"));
+  }
+  // A value given on the command line is recorded as the method runs with it: equal to the
+  // default, the same options (a checkpoint resumes); another, other options.
+  const std::string automatic = options_of("bdpf");
+  o.alpha = double(filtering.alpha);
+  CHECK(options_of("bdpf") == automatic);
+  o.alpha = 0.5;
+  CHECK(has(options_of("bdpf"), "alpha=0.5"));
+  o.alpha.reset();
+  o.radius = 0.01;
+  CHECK(has(options_of("vcm"), "radius=0.01"));
 }
