@@ -36,9 +36,8 @@ enum class VcmMode : std::uint8_t { bdpt, ppm, bpm, vcm };
 /// (sensors/pixel_footprint.hpp); sweeps over SmallVCM's four boxes at 10 s in docs/figures.md
 /// ("The VCM family's default radius"). VCM: 1.25, below SmallVCM's VCM on every box, where 2
 /// (the best geometric mean) lost box 2 by 1.2x: a point light's caustics want small radii, the
-/// sun's (box 0) large ones. PPM and BPM, which merge everywhere: 2, as their noise at 1.25 was 1.1-2.3x (boxes 0 and 2,
-/// the two radii only).
-/// BDPT has no merge radius (0).
+/// sun's (box 0) large ones. PPM and BPM, which merge everywhere: 2, as their noise at 1.25 was
+/// 1.1-2.3x (boxes 0 and 2, the two radii only). BDPT has no merge radius (0).
 [[nodiscard]] constexpr double radius_in_footprints(VcmMode mode) noexcept {
   switch (mode) {
     case VcmMode::vcm: return 1.25;
