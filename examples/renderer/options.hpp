@@ -19,9 +19,11 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -82,6 +84,17 @@ inline const CLI::Validator positive_finite(
     },
     "POSITIVE");
 
+/// A kernel size: positive_finite, and a positive number in the renderer's float (a smaller one
+/// would round to 0, which the filtering methods read as "automatic").
+inline const CLI::Validator kernel_size(
+    [](std::string& s) -> std::string {
+      double v = 0;
+      if (!CLI::detail::lexical_cast(s, v) || !std::isfinite(v) || !(v >= double(std::numeric_limits<float>::min())))
+        return "must be a finite number >= " + std::to_string(std::numeric_limits<float>::min()) + ", got " + s;
+      return {};
+    },
+    "POSITIVE");
+
 inline const CLI::Validator unsigned_integer(
     [](std::string& s) -> std::string {
       if (s.empty() || s.size() > 20 || s.find_first_not_of("0123456789") != std::string::npos)
@@ -133,7 +146,7 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
   app.add_option("--radius", o.radius,
                  "initial kernel radius (bdpt/ppm/bpm/vcm) or voxel size (mvf/phf/bdpf), > 0; default: 1.25x (vcm), 2x (ppm/bpm) "
                  "or 4x (filtering) the average pixel footprint")
-      ->check(positive_finite);
+      ->check(kernel_size);
   app.add_option("--alpha", o.alpha, "progressive kernel shrinking, in (0, 1); default 0.75 (vcm family), 0.67 (filtering)")
       ->check(open_unit_interval);
   app.add_option("--beta", o.beta, "light paths per camera path, > 0; default 1")
@@ -242,6 +255,15 @@ inline std::string image_options(const Options& o) {
     return std::string(s);
   };
   const auto optional = [&](const std::optional<double>& v) { return v ? number(*v) : std::string("default"); };
+  // A resolved value in its shortest exact form: as a float where it is one (the filtering
+  // methods run in float: --alpha 0.67 and their default 0.67f read "0.67"), else as a double.
+  const auto resolved_number = [&](const std::optional<double>& v) {
+    if (!v) return std::string("default");
+    char s[40];
+    const float f = float(*v);
+    const auto end = double(f) == *v ? std::to_chars(s, s + sizeof s, f).ptr : std::to_chars(s, s + sizeof s, *v).ptr;
+    return std::string(s, end);
+  };
   line("scene", o.scene);
   line("method", o.method);
   line("seed", std::to_string(o.seed));
@@ -256,8 +278,8 @@ inline std::string image_options(const Options& o) {
   line("radius", o.radius ? number(*o.radius)
                  : r.kernel_in_footprints ? "default (" + number(*r.kernel_in_footprints) + " footprints)"
                                           : std::string("default"));
-  line("alpha", optional(r.alpha ? r.alpha : o.alpha));
-  line("beta", optional(r.beta ? r.beta : o.beta));
+  line("alpha", r.alpha ? resolved_number(r.alpha) : optional(o.alpha));
+  line("beta", r.beta ? resolved_number(r.beta) : optional(o.beta));
   const std::optional<std::size_t> roulette_from = r.roulette_from ? r.roulette_from : o.roulette_from;
   line("roulette-from", roulette_from ? std::to_string(*roulette_from) : std::string("default"));
   line("support", o.support);

@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -386,22 +387,29 @@ TEST_CASE("a checkpoint's image options record each method's settings as it runs
   CHECK(has(bdpt, "alpha=default"));
   CHECK(has(bdpt, "radius=default"));
   CHECK(has(bdpt, "beta=" + number(vcm.light_path_factor)));
-  // Filtering: the library's alpha (in the renderer's float) and beta, the voxel by its footprints.
+  // Filtering: the library's alpha and beta, in the renderer's float and written as one (the
+  // default alpha 0.67f reads "0.67"), the voxel by its footprints.
   const segpath::FilteringOptions<float> filtering;
+  const auto float_text = [](float v) {
+    char s[40];
+    return std::string(s, std::to_chars(s, s + sizeof s, v).ptr);
+  };
   for (const std::string method : {"mvf", "phf", "bdpf"}) {
     const std::string text = options_of(method);
     INFO(text);
-    CHECK(has(text, "alpha=" + number(double(filtering.alpha))));
-    CHECK(has(text, "beta=" + (method == "mvf" ? std::string("default") : number(double(filtering.light_path_ratio)))));
+    CHECK(has(text, "alpha=" + float_text(filtering.alpha)));
+    CHECK(has(text, "beta=" + (method == "mvf" ? std::string("default") : float_text(filtering.light_path_ratio))));
     CHECK(has(text, "radius=default (" + number(segpath::filtering::cell_in_footprints) + " footprints)"));
   }
-  // A value given on the command line is recorded as the method runs with it: equal to the
-  // default, the same options (a checkpoint resumes); another, other options.
+  // A value given on the command line is recorded as the method runs with it: the default's
+  // value typed out gives the same options (a checkpoint resumes), another value other options.
   const std::string automatic = options_of("bdpf");
-  o.alpha = double(filtering.alpha);
+  o.alpha = 0.67;  // as --alpha 0.67 parses: a double, 0.67f in the method
   CHECK(options_of("bdpf") == automatic);
+  o.alpha = 0.6;
+  CHECK(has(options_of("bdpf"), "alpha=0.6"));
   o.alpha = 0.5;
-  CHECK(has(options_of("bdpf"), "alpha=0.5"));
+  CHECK(has(options_of("vcm"), "alpha=0.5"));
   o.alpha.reset();
   o.radius = 0.01;
   CHECK(has(options_of("vcm"), "radius=0.01"));
