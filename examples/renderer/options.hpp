@@ -89,8 +89,11 @@ inline const CLI::Validator positive_finite(
 inline const CLI::Validator kernel_size(
     [](std::string& s) -> std::string {
       double v = 0;
-      if (!CLI::detail::lexical_cast(s, v) || !std::isfinite(v) || !(v >= double(std::numeric_limits<float>::min())))
-        return "must be a finite number >= " + std::to_string(std::numeric_limits<float>::min()) + ", got " + s;
+      if (!CLI::detail::lexical_cast(s, v) || !std::isfinite(v) || !(v >= double(std::numeric_limits<float>::min()))) {
+        char least[32];
+        std::snprintf(least, sizeof least, "%g", double(std::numeric_limits<float>::min()));
+        return "must be a finite number >= " + std::string(least) + ", got " + s;
+      }
       return {};
     },
     "POSITIVE");
