@@ -75,28 +75,30 @@ inline std::string joined(const std::vector<std::string>& names, const char* sep
   return s;
 }
 
-/// A positive finite number (CLI::PositiveNumber accepts "inf").
-inline const CLI::Validator positive_finite(
-    [](std::string& s) -> std::string {
-      double v = 0;
-      if (!CLI::detail::lexical_cast(s, v) || !std::isfinite(v) || !(v > 0)) return "must be a finite number > 0, got " + s;
-      return {};
-    },
-    "POSITIVE");
+/// A finite number above `least` (or from `least` on, where `inclusive`); the message names the
+/// bound as `bound` ("> 0"). CLI::PositiveNumber accepts "inf".
+inline CLI::Validator finite_number(double least, bool inclusive, const std::string& bound) {
+  return CLI::Validator(
+      [=](std::string& s) -> std::string {
+        double v = 0;
+        if (!CLI::detail::lexical_cast(s, v) || !std::isfinite(v) || !(inclusive ? v >= least : v > least))
+          return "must be a finite number " + bound + ", got " + s;
+        return {};
+      },
+      "POSITIVE");
+}
 
-/// A kernel size: positive_finite, and a positive number in the renderer's float (a smaller one
-/// would round to 0, which the filtering methods read as "automatic").
-inline const CLI::Validator kernel_size(
-    [](std::string& s) -> std::string {
-      double v = 0;
-      if (!CLI::detail::lexical_cast(s, v) || !std::isfinite(v) || !(v >= double(std::numeric_limits<float>::min()))) {
-        char least[32];
-        std::snprintf(least, sizeof least, "%g", double(std::numeric_limits<float>::min()));
-        return "must be a finite number >= " + std::string(least) + ", got " + s;
-      }
-      return {};
-    },
-    "POSITIVE");
+/// A positive finite number.
+inline const CLI::Validator positive_finite = finite_number(0, false, "> 0");
+
+/// A kernel size: a positive number in the renderer's float (a smaller one would round to 0,
+/// which the filtering methods read as "automatic").
+inline const CLI::Validator kernel_size = [] {
+  const double least = std::numeric_limits<float>::min();
+  char text[32];
+  std::snprintf(text, sizeof text, ">= %g", least);
+  return finite_number(least, true, text);
+}();
 
 inline const CLI::Validator unsigned_integer(
     [](std::string& s) -> std::string {
