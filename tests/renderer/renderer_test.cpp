@@ -369,6 +369,12 @@ TEST_CASE("a checkpoint's image options record each method's settings as it runs
     std::snprintf(s, sizeof s, "%.17g", v);
     return std::string(s);
   };
+  // A resolved value as the options write it: shortest exact, as a float where it is one.
+  const auto shortest = [](double v) {
+    char s[40];
+    const float f = float(v);
+    return std::string(s, double(f) == v ? std::to_chars(s, s + sizeof s, f).ptr : std::to_chars(s, s + sizeof s, v).ptr);
+  };
   // PT and LT: Russian roulette from the third segment and never (the renderer's defaults).
   CHECK(has(options_of("pt"), "roulette-from=3"));
   CHECK(has(options_of("lt"), "roulette-from=0"));
@@ -378,27 +384,23 @@ TEST_CASE("a checkpoint's image options record each method's settings as it runs
   for (const segpath::VcmMode mode : {segpath::VcmMode::ppm, segpath::VcmMode::bpm, segpath::VcmMode::vcm}) {
     const std::string text = options_of(std::string(segpath::to_string(mode)));
     INFO(text);
-    CHECK(has(text, "alpha=" + number(vcm.alpha)));
-    CHECK(has(text, "beta=" + number(vcm.light_path_factor)));
+    CHECK(has(text, "alpha=" + shortest(vcm.alpha)));
+    CHECK(has(text, "beta=" + shortest(vcm.light_path_factor)));
     CHECK(has(text, "roulette-from=1"));
     CHECK(has(text, "radius=default (" + number(segpath::radius_in_footprints(mode)) + " footprints)"));
   }
   const std::string bdpt = options_of("bdpt");
   CHECK(has(bdpt, "alpha=default"));
   CHECK(has(bdpt, "radius=default"));
-  CHECK(has(bdpt, "beta=" + number(vcm.light_path_factor)));
+  CHECK(has(bdpt, "beta=" + shortest(vcm.light_path_factor)));
   // Filtering: the library's alpha and beta, in the renderer's float and written as one (the
   // default alpha 0.67f reads "0.67"), the voxel by its footprints.
   const segpath::FilteringOptions<float> filtering;
-  const auto float_text = [](float v) {
-    char s[40];
-    return std::string(s, std::to_chars(s, s + sizeof s, v).ptr);
-  };
   for (const std::string method : {"mvf", "phf", "bdpf"}) {
     const std::string text = options_of(method);
     INFO(text);
-    CHECK(has(text, "alpha=" + float_text(filtering.alpha)));
-    CHECK(has(text, "beta=" + (method == "mvf" ? std::string("default") : float_text(filtering.light_path_ratio))));
+    CHECK(has(text, "alpha=" + shortest(filtering.alpha)));
+    CHECK(has(text, "beta=" + (method == "mvf" ? std::string("default") : shortest(filtering.light_path_ratio))));
     CHECK(has(text, "radius=default (" + number(segpath::filtering::cell_in_footprints) + " footprints)"));
   }
   // A value given on the command line is recorded as the method runs with it: the default's
