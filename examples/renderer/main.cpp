@@ -121,11 +121,12 @@ struct PeakEstimate {
 
 /// The peak memory a render will need, estimated before it starts. Every method keeps a few
 /// images of the full size; the filtering methods also pool every segment of an iteration's pass
-/// (--passes), whose number per pixel one iteration of a pilot render 64 pixels wide (same scene,
-/// method and options, one pass) measures, plus their transfer cache up to its budget (scaled
-/// linearly: with a fixed --radius the full render's clusters are fuller and the cache nearer its
-/// budget; a pass's pool has 1 / passes of the pairs or fewer). docs/figures.md compares it with
-/// the peak resident size.
+/// (--passes), whose bytes per pixel (the pair table's share included) one iteration of a pilot
+/// render 64 pixels wide measures: same scene, method and options, one pass, and a voxel as many
+/// of the pilot's pixel footprints as the render's is of its own, so that its clusters hold as
+/// many segments and pairs as the render's (an automatic voxel is that already; a --radius is
+/// scaled). Plus the transfer cache up to its budget, scaled linearly (a pass's pool has 1 /
+/// passes of the pairs or fewer). docs/figures.md compares it with the peak resident size.
 PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo) {
   const double pixels = double(o.width) * double(o.height);
   PeakEstimate estimate;
@@ -141,6 +142,7 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo)
   renderer::MethodOptions quiet = mo;
   quiet.print_stats = false;
   quiet.passes = 1;  // (the pilot's pixels may be fewer than the passes)
+  if (quiet.radius) *quiet.radius /= shrink;  // the pilot's pixel footprint is 1 / shrink the render's
   auto method = renderer::make_method(o.method, quiet);
   renderer::Stats stats;
   std::optional<segpath::FilteringStats> f;
