@@ -34,6 +34,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <optional>
 #include <string>
 #include <thread>
@@ -119,15 +120,16 @@ struct PeakEstimate {
   [[nodiscard]] std::uint64_t total() const noexcept { return std::uint64_t(rest + cache); }
 };
 
-/// The peak memory a render will need, estimated before it starts. Every method keeps a few
-/// images of the full size; the filtering methods also pool every segment of an iteration's pass
-/// (--passes), whose bytes per pixel (the pair table's share included) one iteration of a pilot
-/// render 64 pixels wide measures: same scene, method and options, one pass, and a voxel as many
-/// of the pilot's pixel footprints as the render's is of its own, so that its clusters hold as
-/// many segments and pairs as the render's (an automatic voxel is that already; a --radius is
-/// scaled). Plus the transfer cache up to its budget, scaled linearly (a pass's pool has 1 /
-/// passes of the pairs or fewer). docs/figures.md compares it with the peak resident size.
-PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo) {
+/// The peak memory a render of `scene` will need, estimated before it starts. Every method keeps
+/// a few images of the full size; the filtering methods also pool every segment of an
+/// iteration's pass (--passes), whose bytes per pixel (the pair table's share included) one
+/// iteration of a pilot render of at most 64 x 64 pixels (aspect kept) measures: same scene,
+/// method and options, one pass, and a voxel as many of the pilot's pixel footprints as the
+/// render's is of its own, so that its clusters hold as many segments and pairs as the render's
+/// (an automatic voxel is that already; a --radius is scaled). Plus the transfer cache up to its
+/// budget, scaled linearly (a pass's pool has 1 / passes of the pairs or fewer). docs/figures.md
+/// compares it with the peak resident size.
+PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo, const renderer::RenderScene& scene) {
   const double pixels = double(o.width) * double(o.height);
   PeakEstimate estimate;
   double& bytes = estimate.rest;
@@ -138,18 +140,21 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo)
   const double shrink = std::min(1.0, 64.0 / std::sqrt(pixels));
   pilot.width = std::max<std::uint32_t>(1, std::uint32_t(std::lround(o.width * shrink)));
   pilot.height = std::max<std::uint32_t>(1, std::uint32_t(std::lround(o.height * shrink)));
-  const renderer::RenderScene scene = load_scene(pilot);
+  const renderer::RenderScene pilot_scene = load_scene(pilot);
   renderer::MethodOptions quiet = mo;
   quiet.print_stats = false;
   quiet.passes = 1;  // (the pilot's pixels may be fewer than the passes)
-  if (quiet.radius) *quiet.radius /= shrink;  // the pilot's pixel footprint is 1 / shrink the render's
+  // A pixel footprint is a distance times the side of a pixel's solid angle, which scales as
+  // 1 / sqrt(the camera's inverse pixel area): the pilot's footprint over the render's.
+  const double footprints = std::sqrt(double(scene.sensor().inverse_pixel_area()) / double(pilot_scene.sensor().inverse_pixel_area()));
+  if (quiet.radius) *quiet.radius = std::min(*quiet.radius * footprints, double(std::numeric_limits<float>::max()));
   auto method = renderer::make_method(o.method, quiet);
   renderer::Stats stats;
   std::optional<segpath::FilteringStats> f;
   std::visit(
       [&](auto& m) {
         if constexpr (requires { m.last_stats(); }) {
-          m.iterate(scene, stats, renderer::TbbFor{});
+          m.iterate(pilot_scene, stats, renderer::TbbFor{});
           f = m.last_stats();
         }
       },
@@ -350,7 +355,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
             }, *method))
           fail("--passes applies to mvf, phf and bdpf only, not to " + o.method);
         tbb::global_control pilot_threads(tbb::global_control::max_allowed_parallelism, o.threads);
-        const PeakEstimate peak = estimated_peak(o, mo);
+        const PeakEstimate peak = estimated_peak(o, mo, *scene);
         std::uint64_t estimate = peak.total();
         // In double: a tiny --memory-limit must not round to 0 ("unknown"), a huge one not overflow.
         const double limit = o.memory_limit_gb ? *o.memory_limit_gb * 1e9 : double(available_bytes());
