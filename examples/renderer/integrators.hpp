@@ -240,6 +240,8 @@ class MethodRun {
   /// The sum of the iterations rendered so far (empty before the first).
   [[nodiscard]] const Accumulator& sum() const { return started().sum(); }
   [[nodiscard]] std::uint64_t iterations() const noexcept { return render_ ? render_->iterations() : 0; }
+  /// The library method (after the first iteration: the one that rendered it).
+  [[nodiscard]] const Library& method() const { return render_ ? render_->method() : *method_; }
 
  protected:
   /// iterate() of a method class M derived from MethodRun: M's own render() (which may do more,

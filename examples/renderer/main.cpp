@@ -112,29 +112,40 @@ std::uint64_t available_bytes() {
   return 0;
 }
 
+/// The estimate's factor on BDPT's and the VCM family's light subpaths at their size
+/// (VertexConnectionMerging::light_path_bytes): their lists' unused capacity and the heap's
+/// holes they leave as they grow (measured against peak resident sizes: docs/figures.md).
+constexpr double light_path_slack = 1.6;
+
 /// A render's estimated peak memory, in bytes: the transfer cache of the filtering methods apart.
 struct PeakEstimate {
   double rest = 0;   ///< bytes besides the transfer cache
   double cache = 0;  ///< the transfer cache's bytes (filtering methods)
   double pool = 0;   ///< in rest: one pass's pool (filtering methods; --passes divides it)
+  double light_paths = 0;  ///< in rest: BDPT's and the VCM family's light subpaths (--beta scales them)
   [[nodiscard]] std::uint64_t total() const noexcept { return std::uint64_t(rest + cache); }
 };
 
 /// The peak memory a render of `scene` will need, estimated before it starts. Every method keeps
-/// a few images of the full size; the filtering methods also pool every segment of an
-/// iteration's pass (--passes), whose bytes per pixel (the pair table's share included) one
-/// iteration of a pilot render of at most 64 x 64 pixels (aspect kept) measures: same scene,
-/// method and options, one pass, and a voxel as many of the pilot's pixel footprints as the
-/// render's is of its own, so that its clusters hold as many segments and pairs as the render's
-/// (an automatic voxel is that already; a --radius is scaled). Plus the transfer cache up to its
-/// budget, scaled linearly (a pass's pool has 1 / passes of the pairs or fewer). docs/figures.md
-/// compares it with the peak resident size.
+/// a few images of the full size. The others are measured by one iteration of a pilot render of
+/// at most 64 x 64 pixels (aspect kept; same scene, method and options) and scaled by the
+/// pixels: BDPT's and the VCM family's light subpaths (their scratch), and the filtering
+/// methods' pool of every segment of an iteration's pass (--passes; the pilot draws one), the
+/// pair table's share included. For those, the pilot's voxel is as many of its pixel footprints
+/// as the render's is of its own, so that its clusters hold as many segments and pairs as the
+/// render's (an automatic voxel is that already; a --radius is scaled). Plus the transfer cache
+/// up to its budget, scaled linearly (a pass's pool has 1 / passes of the pairs or fewer).
+/// docs/figures.md compares the estimate with the peak resident size.
 PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo, const renderer::RenderScene& scene) {
   const double pixels = double(o.width) * double(o.height);
   PeakEstimate estimate;
   double& bytes = estimate.rest;
   bytes = 64.0 * pixels;  // accumulator (double RGB), the method's image, the output image
-  if (o.method != "mvf" && o.method != "phf" && o.method != "bdpf") return estimate;
+  // Only the methods that keep an iteration's paths (the filtering methods' pool, the VCM
+  // family's light subpaths) need more than the images.
+  const auto kind = renderer::make_method(o.method, mo);
+  if (!kind || !std::visit([](const auto& m) { return requires { m.last_stats(); } || requires { m.method().light_path_bytes(); }; }, *kind))
+    return estimate;
   // At most 64 x 64 pixels, the render's aspect kept (one side may shrink to 1 pixel).
   Options pilot = o;
   const double shrink = std::min(1.0, 64.0 / std::sqrt(pixels));
@@ -151,16 +162,24 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo,
   auto method = renderer::make_method(o.method, quiet);
   renderer::Stats stats;
   std::optional<segpath::FilteringStats> f;
+  std::optional<double> scratch;
   std::visit(
       [&](auto& m) {
         if constexpr (requires { m.last_stats(); }) {
           m.iterate(pilot_scene, stats, renderer::TbbFor{});
           f = m.last_stats();
+        } else if constexpr (requires { m.method().light_path_bytes(); }) {
+          m.iterate(pilot_scene, stats, renderer::TbbFor{});
+          scratch = double(m.method().light_path_bytes());
         }
       },
       *method);
-  if (!f) return estimate;
   const double scale = pixels / (double(pilot.width) * double(pilot.height));
+  // BDPT and the VCM family: the light subpaths' ends, photon grid and splats, in proportion to
+  // the light paths (--beta x pixels), and a factor for the lists' unused capacity and the heap's
+  // holes they leave as they grow (measured: docs/figures.md, session 30).
+  if (scratch) bytes += estimate.light_paths = light_path_slack * *scratch * scale;
+  if (!f) return estimate;
   // The pool of one pass, and 10 % for the heap's holes around it (docs/figures.md, session 27).
   estimate.pool = 1.1 * double(f->segments) * scale * double(f->bytes_per_segment) / double(mo.passes);
   bytes += estimate.pool;
@@ -389,7 +408,8 @@ int run(const Options& o, const renderer::Ranks& ranks) {
           fail("this render needs about " + memory_size(estimate) + ", more than " +
                (o.memory_limit_gb ? "--memory-limit" : "the memory available") + " (" +
                memory_size(std::uint64_t(std::min(limit, 1e19))) + "); lower it with " + fewer_passes +
-               (!filtering ? "" : peak.rest < limit ? "--transfer-cache, --beta or " : "--beta or ") + "--width/--height");
+               (!filtering ? (peak.light_paths > 0 ? "--beta or " : "") : peak.rest < limit ? "--transfer-cache, --beta or " : "--beta or ") +
+               "--width/--height");
         }
         if (o.stats && root)
           std::fprintf(stderr, "segpath-render: estimated peak memory %s (transfer cache %s)\n", memory_size(estimate).c_str(),

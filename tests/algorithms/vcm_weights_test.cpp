@@ -261,3 +261,28 @@ TEST_CASE("the kernel radius follows ProgressiveRadius from iteration 0", "[algo
   o.mode = VcmMode::bdpt;
   CHECK_FALSE(VertexConnectionMerging<Sphere>(o).kernel_schedule(scene).has_kernel());
 }
+
+// A renderer estimates a large render's memory from a small one's (segpath-render's pilot), so
+// what an iteration reports must follow its light paths, not a constant or a capacity.
+TEST_CASE("VCM's light-path bytes follow the light paths of an iteration", "[algorithms][vcm]") {
+  const Sphere scene = make_sphere();
+  const auto bytes_after_one_iteration = [&](VcmMode mode, double light_path_factor) {
+    VcmOptions o;
+    o.mode = mode;
+    o.initial_radius = 0.1;
+    o.light_path_factor = light_path_factor;
+    o.roulette_from = 1;  // light subpaths of many lengths
+    const VertexConnectionMerging<Sphere> v(o);
+    Framebuffer<double> image(3, 2);
+    DropCounters drops;
+    v.render_iteration(scene, 0, image, drops, SerialFor{});
+    return double(v.light_path_bytes());
+  };
+  for (const VcmMode mode : {VcmMode::bdpt, VcmMode::ppm, VcmMode::vcm}) {
+    INFO("mode " << to_string(mode));
+    const double small = bytes_after_one_iteration(mode, 2000), large = bytes_after_one_iteration(mode, 7000);
+    CHECK(large / small == Approx(3.5).epsilon(0.05));
+  }
+  // Merging keeps the photons and their grid besides the ends BDPT keeps.
+  CHECK(bytes_after_one_iteration(VcmMode::vcm, 2000) > 1.2 * bytes_after_one_iteration(VcmMode::bdpt, 2000));
+}

@@ -86,6 +86,21 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
 
   [[nodiscard]] const VcmOptions& options() const noexcept { return options_; }
 
+  /// Bytes of the scratch that grow with the light paths, at their sizes after the last
+  /// iteration: each light subpath's ends (kept twice: per chunk and in path order), its first
+  /// end and count, the photons and their grid (HashGrid::item_bytes), and the splats to the
+  /// camera that the iteration recorded before it applied them. Proportional to the light paths
+  /// of an iteration, so a renderer can scale a small render's to a larger one's. Not counted:
+  /// unused capacity, the heap's holes, and what does not grow with the paths (the per-chunk
+  /// path buffers of max_length - 1 ends each).
+  [[nodiscard]] std::size_t light_path_bytes() const noexcept {
+    const Scratch& sc = scratch_;
+    std::size_t bytes = sc.light_vertices.size() * sizeof(Vertex);
+    bytes += (sc.light_first.size() + sc.light_counts.size() + sc.photons.size()) * sizeof(std::uint32_t);
+    for (const auto& ends : sc.chunk_vertices) bytes += ends.size() * sizeof(Vertex);
+    return bytes + sc.grid.item_bytes() + sc.applied_splat_bytes;
+  }
+
   /// The merge radius of every iteration: none for bdpt; else from initial_radius (or
   /// radius_in_footprints(mode) pixel footprints when it is 0), shrinking by ProgressiveRadius.
   [[nodiscard]] KernelSchedule<T> kernel_schedule(const Scn& scene) const {
@@ -201,6 +216,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
         image[std::uint32_t(p)] += camera_path(scene, it, std::uint32_t(p), n, rng, sc.camera_drops[c]);
       }
     });
+    sc.applied_splat_bytes = sc.splats.splat_bytes();
     sc.splats.apply(image, drops);
     for (const DropCounters& d : sc.camera_drops) drops += d;
   }
@@ -315,6 +331,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     std::vector<std::uint32_t> photons;
     HashGrid<T, Photon> grid;  ///< the photons' merging state, in cell order
     SplatRecorder<S> splats{chunk_count};
+    std::size_t applied_splat_bytes = 0;  ///< splats.splat_bytes() of the last iteration, before it applied them
     std::vector<DropCounters> camera_drops;
   };
 

@@ -62,6 +62,12 @@ class SplatRecorder {
  public:
   explicit SplatRecorder(std::size_t chunks) : splats_(chunks), drops_(chunks) {}
   [[nodiscard]] std::size_t chunks() const noexcept { return splats_.size(); }
+  /// Bytes of the splats recorded since the last apply() (unused capacity not counted).
+  [[nodiscard]] std::size_t splat_bytes() const noexcept {
+    std::size_t bytes = 0;
+    for (const auto& list : splats_) bytes += list.size() * sizeof(list[0]);
+    return bytes;
+  }
   /// The sink of one chunk; use it from one thread at a time.
   [[nodiscard]] ChunkSink<S> sink(std::size_t chunk) noexcept { return {&splats_[chunk], &drops_[chunk]}; }
   /// Adds every recorded splat to `image` in chunk order, merges the drop counts, and

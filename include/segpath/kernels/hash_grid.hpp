@@ -60,6 +60,13 @@ class HashGrid {
 
   [[nodiscard]] std::size_t size() const noexcept { return entries_.size(); }
   [[nodiscard]] T radius() const noexcept { return radius_; }
+  /// Bytes of the arrays that grow with the sources and items, at their sizes after the last
+  /// build (entries, the buckets, each source's bucket); not the fixed per-chunk and per-group
+  /// counters, unused capacity, or the per-thread sort buffers (~1/256 of the items each).
+  [[nodiscard]] std::size_t item_bytes() const noexcept {
+    return (bucket_start_.size() + source_bucket_.size() + grouped_bucket_.size()) * sizeof(std::uint32_t) +
+           entries_.size() * sizeof(Entry);
+  }
 
   /// Calls f(item, position) for every item with |position - p| < radius (item: const Item&).
   template <class F>
