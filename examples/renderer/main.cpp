@@ -38,6 +38,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <type_traits>
 #include <vector>
 
 namespace {
@@ -126,6 +127,11 @@ struct PeakEstimate {
   [[nodiscard]] std::uint64_t total() const noexcept { return std::uint64_t(rest + cache); }
 };
 
+/// A renderer method whose iteration keeps paths in proportion to the image: the filtering
+/// methods' pool (their FilteringStats) or BDPT's and the VCM family's light subpaths.
+template <class M>
+concept KeepsPaths = requires(M& m) { m.last_stats(); } || requires(M& m) { m.method().light_path_bytes(); };
+
 /// The peak memory a render of `scene` will need, estimated before it starts. Every method keeps
 /// a few images of the full size. The others are measured by one iteration of a pilot render of
 /// at most 64 x 64 pixels (aspect kept; same scene, method and options) and scaled by the
@@ -136,16 +142,13 @@ struct PeakEstimate {
 /// render's (an automatic voxel is that already; a --radius is scaled). Plus the transfer cache
 /// up to its budget, scaled linearly (a pass's pool has 1 / passes of the pairs or fewer).
 /// docs/figures.md compares the estimate with the peak resident size.
-PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo, const renderer::RenderScene& scene) {
+PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo, const renderer::RenderScene& scene,
+                           const renderer::Method& render_method) {
   const double pixels = double(o.width) * double(o.height);
   PeakEstimate estimate;
   double& bytes = estimate.rest;
   bytes = 64.0 * pixels;  // accumulator (double RGB), the method's image, the output image
-  // Only the methods that keep an iteration's paths (the filtering methods' pool, the VCM
-  // family's light subpaths) need more than the images.
-  const auto kind = renderer::make_method(o.method, mo);
-  if (!kind || !std::visit([](const auto& m) { return requires { m.last_stats(); } || requires { m.method().light_path_bytes(); }; }, *kind))
-    return estimate;
+  if (!std::visit([](const auto& m) { return KeepsPaths<std::remove_cvref_t<decltype(m)>>; }, render_method)) return estimate;
   // At most 64 x 64 pixels, the render's aspect kept (one side may shrink to 1 pixel).
   Options pilot = o;
   const double shrink = std::min(1.0, 64.0 / std::sqrt(pixels));
@@ -162,15 +165,13 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo,
   auto method = renderer::make_method(o.method, quiet);
   renderer::Stats stats;
   std::optional<segpath::FilteringStats> f;
-  std::optional<double> scratch;
+  double pilot_light_path_bytes = 0;
   std::visit(
       [&](auto& m) {
-        if constexpr (requires { m.last_stats(); }) {
+        if constexpr (KeepsPaths<std::remove_cvref_t<decltype(m)>>) {
           m.iterate(pilot_scene, stats, renderer::TbbFor{});
-          f = m.last_stats();
-        } else if constexpr (requires { m.method().light_path_bytes(); }) {
-          m.iterate(pilot_scene, stats, renderer::TbbFor{});
-          scratch = double(m.method().light_path_bytes());
+          if constexpr (requires { m.last_stats(); }) f = m.last_stats();
+          else pilot_light_path_bytes = double(m.method().light_path_bytes());
         }
       },
       *method);
@@ -178,7 +179,7 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo,
   // BDPT and the VCM family: the light subpaths' ends, photon grid and splats, in proportion to
   // the light paths (--beta x pixels), and a factor for the lists' unused capacity and the heap's
   // holes they leave as they grow (measured: docs/figures.md, session 30).
-  if (scratch) bytes += estimate.light_paths = light_path_slack * *scratch * scale;
+  bytes += estimate.light_paths = light_path_slack * pilot_light_path_bytes * scale;
   if (!f) return estimate;
   // The pool of one pass, and 10 % for the heap's holes around it (docs/figures.md, session 27).
   estimate.pool = 1.1 * double(f->segments) * scale * double(f->bytes_per_segment) / double(mo.passes);
@@ -374,7 +375,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
             }, *method))
           fail("--passes applies to mvf, phf and bdpf only, not to " + o.method);
         tbb::global_control pilot_threads(tbb::global_control::max_allowed_parallelism, o.threads);
-        const PeakEstimate peak = estimated_peak(o, mo, *scene);
+        const PeakEstimate peak = estimated_peak(o, mo, *scene, *method);
         std::uint64_t estimate = peak.total();
         // In double: a tiny --memory-limit must not round to 0 ("unknown"), a huge one not overflow.
         const double limit = o.memory_limit_gb ? *o.memory_limit_gb * 1e9 : double(available_bytes());
