@@ -98,7 +98,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     std::size_t bytes = sc.light_vertices.size() * sizeof(Vertex);
     bytes += (sc.light_first.size() + sc.light_counts.size() + sc.photons.size()) * sizeof(std::uint32_t);
     for (const auto& ends : sc.chunk_vertices) bytes += ends.size() * sizeof(Vertex);
-    return bytes + sc.grid.item_bytes() + sc.applied_splat_bytes;
+    return bytes + sc.grid.item_bytes() + sc.splats.applied_bytes();
   }
 
   /// The merge radius of every iteration: none for bdpt; else from initial_radius (or
@@ -216,7 +216,6 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
         image[std::uint32_t(p)] += camera_path(scene, it, std::uint32_t(p), n, rng, sc.camera_drops[c]);
       }
     });
-    sc.applied_splat_bytes = sc.splats.splat_bytes();
     sc.splats.apply(image, drops);
     for (const DropCounters& d : sc.camera_drops) drops += d;
   }
@@ -331,7 +330,6 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     std::vector<std::uint32_t> photons;
     HashGrid<T, Photon> grid;  ///< the photons' merging state, in cell order
     SplatRecorder<S> splats{chunk_count};
-    std::size_t applied_splat_bytes = 0;  ///< splats.splat_bytes() of the last iteration, before it applied them
     std::vector<DropCounters> camera_drops;
   };
 

@@ -62,18 +62,17 @@ class SplatRecorder {
  public:
   explicit SplatRecorder(std::size_t chunks) : splats_(chunks), drops_(chunks) {}
   [[nodiscard]] std::size_t chunks() const noexcept { return splats_.size(); }
-  /// Bytes of the splats recorded since the last apply() (unused capacity not counted).
-  [[nodiscard]] std::size_t splat_bytes() const noexcept {
-    std::size_t bytes = 0;
-    for (const auto& list : splats_) bytes += list.size() * sizeof(list[0]);
-    return bytes;
-  }
+  /// Bytes of the splats the last apply() added (unused capacity not counted): what an
+  /// iteration's recording held at its largest.
+  [[nodiscard]] std::size_t applied_bytes() const noexcept { return applied_bytes_; }
   /// The sink of one chunk; use it from one thread at a time.
   [[nodiscard]] ChunkSink<S> sink(std::size_t chunk) noexcept { return {&splats_[chunk], &drops_[chunk]}; }
   /// Adds every recorded splat to `image` in chunk order, merges the drop counts, and
   /// clears the recorder for the next iteration.
   void apply(Framebuffer<S>& image, DropCounters& drops) {
+    applied_bytes_ = 0;
     for (std::size_t c = 0; c < splats_.size(); ++c) {
+      applied_bytes_ += splats_[c].size() * sizeof(splats_[c][0]);
       for (const auto& [pixel, value] : splats_[c]) image.add(pixel, value);
       splats_[c].clear();
       drops += drops_[c];
@@ -84,6 +83,7 @@ class SplatRecorder {
  private:
   std::vector<std::vector<std::pair<std::uint32_t, S>>> splats_;
   std::vector<DropCounters> drops_;
+  std::size_t applied_bytes_ = 0;
 };
 
 }  // namespace segpath
