@@ -128,28 +128,6 @@ TEST_CASE("segment filtering: light paths have no depth limit, every light-born 
   CHECK(beyond > 20);  // ~1/4 of 256 light paths
 }
 
-TEST_CASE("segment filtering: a record list keeps every record, in order, across its blocks", "[algorithms]") {
-  using List = filtering::RecordList<double, Rgb<double>>;
-  const std::size_t n = 2 * List::block_size + 3;
-  List list;
-  for (std::size_t i = 0; i < n; ++i) {
-    filtering::Record<double, Rgb<double>> r;
-    r.pixel = std::uint32_t(i);
-    r.geometry = double(i) + 0.5;
-    list.push_back(r);
-  }
-  REQUIRE(list.size() == n);
-  std::size_t wrong = 0;
-  for (std::size_t i = 0; i < n; ++i) wrong += list[i].pixel != i || list[i].geometry != double(i) + 0.5;
-  CHECK(wrong == 0);
-  List moved = std::move(list);
-  CHECK(list.size() == 0);  // NOLINT(bugprone-use-after-move): a moved-from list is empty
-  CHECK(moved.size() == n);
-  CHECK(moved[n - 1].pixel == n - 1);
-  moved[List::block_size].pixel = 7;  // a write lands where a read finds it
-  CHECK(std::as_const(moved)[List::block_size].pixel == 7);
-}
-
 TEST_CASE("segment filtering: factorised clusters give the same image", "[algorithms]") {
   const PhotographedSlab<double> scene(furnace, 8);
   for (auto mode : {FilteringMode::mvf, FilteringMode::phf, FilteringMode::bdpf}) {

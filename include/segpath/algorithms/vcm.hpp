@@ -7,6 +7,7 @@
 #include "segpath/concepts/bsdf.hpp"
 #include "segpath/concepts/scene.hpp"
 #include "segpath/integrand/contribution.hpp"
+#include "segpath/core/block_list.hpp"
 #include "segpath/core/drop.hpp"
 #include "segpath/core/framebuffer.hpp"
 #include "segpath/core/parallel.hpp"
@@ -174,7 +175,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
       sc.path_buffers.resize(chunks);
       parallel_for(chunks, [&](std::size_t c) {
         auto sink = sc.splats.sink(c);
-        std::vector<Vertex>& ends = sc.chunk_vertices[c];
+        ChunkEnds& ends = sc.chunk_vertices[c];
         std::vector<Vertex>& buffer = sc.path_buffers[c];
         ends.clear();
         buffer.resize(stride);
@@ -184,7 +185,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
           const std::uint32_t count = trace_light_subpath(scene, it, rng, std::span<Vertex>(buffer.data(), stride));
           sc.light_first[i] = static_cast<std::uint32_t>(ends.size());
           sc.light_counts[i] = count;
-          ends.insert(ends.end(), buffer.begin(), buffer.begin() + count);
+          for (std::uint32_t j = 0; j < count; ++j) ends.push_back(buffer[j]);
           if (!it.camera_connectable) continue;
           for (std::uint32_t j = 0; j < count; ++j)
             if (!buffer[j].specular) connect_to_camera(scene, it, buffer[j], rng, sink);
@@ -194,7 +195,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
       for (std::size_t c = 0; c < chunks; ++c) base[c + 1] = base[c] + sc.chunk_vertices[c].size();
       sc.light_vertices.resize(base[chunks]);
       parallel_for(chunks, [&](std::size_t c) {
-        std::copy(sc.chunk_vertices[c].begin(), sc.chunk_vertices[c].end(), sc.light_vertices.begin() + std::ptrdiff_t(base[c]));
+        sc.chunk_vertices[c].copy_to(sc.light_vertices.begin() + std::ptrdiff_t(base[c]));
         for (std::size_t i = c * n / chunks; i < (c + 1) * n / chunks; ++i) sc.light_first[i] += static_cast<std::uint32_t>(base[c]);
       });
     }
@@ -322,10 +323,13 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
   using VcmWeights<Scn>::scatter_light;
   static constexpr std::uint64_t light_salt = 0x6c69676874ULL;
 
+  /// One chunk's light-subpath ends, in blocks of ~90 KB (float) that never move and are kept
+  /// from iteration to iteration (core/block_list.hpp): no doubling, no outgrown buffers.
+  using ChunkEnds = BlockList<Vertex, 1024>;
   struct Scratch {
     std::vector<Vertex> light_vertices;                  ///< every light subpath's ends, path after path
     std::vector<std::uint32_t> light_first, light_counts;  ///< per light subpath: its first end there, its count
-    std::vector<std::vector<Vertex>> chunk_vertices;      ///< the ends each chunk traced
+    std::vector<ChunkEnds> chunk_vertices;               ///< the ends each chunk traced
     std::vector<std::vector<Vertex>> path_buffers;        ///< per chunk: one subpath's ends while tracing
     std::vector<std::uint32_t> photons;
     HashGrid<T, Photon> grid;  ///< the photons' merging state, in cell order

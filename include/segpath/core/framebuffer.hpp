@@ -4,6 +4,7 @@
 // order, so an image never depends on the thread count.
 #pragma once
 
+#include "segpath/core/block_list.hpp"
 #include "segpath/core/drop.hpp"
 #include "segpath/core/spectrum.hpp"
 
@@ -43,13 +44,18 @@ class Framebuffer {
   std::vector<S> pixels_;
 };
 
+/// One work chunk's recorded splats, in blocks that never move (64 KB for an RGB float
+/// spectrum): no doubling as a chunk records, no outgrown buffers left in the heap.
+template <Spectrum S>
+using SplatList = BlockList<std::pair<std::uint32_t, S>>;
+
 /// A ContributionSink for one work chunk: finite values are recorded, the rest counted.
 template <Spectrum S>
 struct ChunkSink {
-  std::vector<std::pair<std::uint32_t, S>>* splats;
+  SplatList<S>* splats;
   DropCounters* drops;
   void add(std::uint32_t pixel, const S& value) {
-    if (is_finite(value)) splats->emplace_back(pixel, value);
+    if (is_finite(value)) splats->push_back({pixel, value});
     else drops->add(DropReason::non_finite);
   }
   void drop(DropReason r) noexcept { drops->add(r); }
@@ -72,8 +78,9 @@ class SplatRecorder {
   void apply(Framebuffer<S>& image, DropCounters& drops) {
     applied_bytes_ = 0;
     for (std::size_t c = 0; c < splats_.size(); ++c) {
-      applied_bytes_ += splats_[c].size() * sizeof(splats_[c][0]);
-      for (const auto& [pixel, value] : splats_[c]) image.add(pixel, value);
+      const SplatList<S>& list = splats_[c];
+      applied_bytes_ += list.size() * sizeof(typename SplatList<S>::value_type);
+      for (std::size_t i = 0; i < list.size(); ++i) image.add(list[i].first, list[i].second);
       splats_[c].clear();
       drops += drops_[c];
       drops_[c] = {};
@@ -81,7 +88,7 @@ class SplatRecorder {
   }
 
  private:
-  std::vector<std::vector<std::pair<std::uint32_t, S>>> splats_;
+  std::vector<SplatList<S>> splats_;
   std::vector<DropCounters> drops_;
   std::size_t applied_bytes_ = 0;
 };
