@@ -113,29 +113,41 @@ std::uint64_t available_bytes() {
   return 0;
 }
 
-/// The estimate's factor on BDPT's and the VCM family's light subpaths at their size
-/// (VertexConnectionMerging::light_path_bytes): their lists' unused capacity and the heap's
-/// holes they leave as they grow (measured against peak resident sizes: docs/figures.md).
-constexpr double light_path_slack = 1.6;
+/// Bytes this process has resident now (the second field of /proc/self/statm); 0 if unknown.
+std::uint64_t resident_bytes() {
+  std::ifstream statm("/proc/self/statm");
+  std::uint64_t size = 0, resident = 0;
+  if (!(statm >> size >> resident)) return 0;
+  const long page = ::sysconf(_SC_PAGESIZE);
+  return page > 0 ? resident * std::uint64_t(page) : 0;
+}
+
+/// The estimate's factor on what LT, BDPT and the VCM family keep in proportion to their light
+/// paths, at its size (light_path_bytes): the lists' last, partly filled blocks and the heap
+/// around them (measured against peak resident sizes at 0.96-1.01: docs/figures.md, session 31).
+constexpr double light_path_slack = 1.05;
 
 /// A render's estimated peak memory, in bytes: the transfer cache of the filtering methods apart.
 struct PeakEstimate {
   double rest = 0;   ///< bytes besides the transfer cache
   double cache = 0;  ///< the transfer cache's bytes (filtering methods)
   double pool = 0;   ///< in rest: one pass's pool (filtering methods; --passes divides it)
-  double light_paths = 0;  ///< in rest: BDPT's and the VCM family's light subpaths (--beta scales them)
+  double light_paths = 0;  ///< in rest: LT's splats, BDPT's and the VCM family's light subpaths (--beta scales them)
+  double process = 0;      ///< in rest: what the process has resident before the render (scene, BVH, libraries)
   [[nodiscard]] std::uint64_t total() const noexcept { return std::uint64_t(rest + cache); }
 };
 
 /// A renderer method whose iteration keeps paths in proportion to the image: the filtering
-/// methods' pool (their FilteringStats) or BDPT's and the VCM family's light subpaths.
+/// methods' pool (their FilteringStats), BDPT's and the VCM family's light subpaths, or LT's
+/// splats.
 template <class M>
 concept KeepsPaths = requires(M& m) { m.last_stats(); } || requires(M& m) { m.method().light_path_bytes(); };
 
-/// The peak memory a render of `scene` will need, estimated before it starts. Every method keeps
-/// a few images of the full size. The others are measured by one iteration of a pilot render of
+/// The peak memory a render of `scene` will need, estimated before it starts: what the process
+/// has resident now (the scene loaded), and a few images of the full size that every method
+/// keeps. The rest is measured by one iteration of a pilot render of
 /// at most 64 x 64 pixels (aspect kept; same scene, method and options) and scaled by the
-/// pixels: BDPT's and the VCM family's light subpaths (their scratch), and the filtering
+/// pixels: LT's splats, BDPT's and the VCM family's light subpaths (their scratch), and the filtering
 /// methods' pool of every segment of an iteration's pass (--passes; the pilot draws one), the
 /// pair table's share included. For those, the pilot's voxel is as many of its pixel footprints
 /// as the render's is of its own, so that its clusters hold as many segments and pairs as the
@@ -147,7 +159,8 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo,
   const double pixels = double(o.width) * double(o.height);
   PeakEstimate estimate;
   double& bytes = estimate.rest;
-  bytes = 64.0 * pixels;  // accumulator (double RGB), the method's image, the output image
+  estimate.process = double(resident_bytes());  // before the pilot allocates anything
+  bytes = estimate.process + 64.0 * pixels;     // accumulator (double RGB), the method's image, the output image
   if (!std::visit([](const auto& m) { return KeepsPaths<std::remove_cvref_t<decltype(m)>>; }, render_method)) return estimate;
   // At most 64 x 64 pixels, the render's aspect kept (one side may shrink to 1 pixel).
   Options pilot = o;
@@ -171,15 +184,19 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo,
         if constexpr (KeepsPaths<std::remove_cvref_t<decltype(m)>>) {
           m.iterate(pilot_scene, stats, renderer::TbbFor{});
           if constexpr (requires { m.last_stats(); }) f = m.last_stats();
-          else pilot_light_path_bytes = double(m.method().light_path_bytes());
+          else {
+            pilot_light_path_bytes = double(m.method().light_path_bytes());
+            estimate.light_paths = double(m.method().fixed_scratch_bytes());
+          }
         }
       },
       *method);
   const double scale = pixels / (double(pilot.width) * double(pilot.height));
-  // BDPT and the VCM family: the light subpaths' ends, photon grid and splats, in proportion to
-  // the light paths (--beta x pixels), and a factor for the lists' unused capacity and the heap's
-  // holes they leave as they grow (measured: docs/figures.md, session 30).
-  bytes += estimate.light_paths = light_path_slack * pilot_light_path_bytes * scale;
+  // LT, BDPT and the VCM family: the light subpaths' ends, photon grid and splats, in proportion
+  // to the light paths (--beta x pixels), with a factor for the heap around them (measured:
+  // docs/figures.md, session 31), besides their fixed scratch.
+  estimate.light_paths += light_path_slack * pilot_light_path_bytes * scale;
+  bytes += estimate.light_paths;
   if (!f) return estimate;
   // The pool of one pass, and 10 % for the heap's holes around it (docs/figures.md, session 27).
   estimate.pool = 1.1 * double(f->segments) * scale * double(f->bytes_per_segment) / double(mo.passes);
@@ -378,7 +395,9 @@ int run(const Options& o, const renderer::Ranks& ranks) {
         const PeakEstimate peak = estimated_peak(o, mo, *scene, *method);
         std::uint64_t estimate = peak.total();
         // In double: a tiny --memory-limit must not round to 0 ("unknown"), a huge one not overflow.
-        const double limit = o.memory_limit_gb ? *o.memory_limit_gb * 1e9 : double(available_bytes());
+        // The estimate counts the process as it is now; the machine lets it grow by what is available.
+        const std::uint64_t available = available_bytes();
+        const double limit = o.memory_limit_gb ? *o.memory_limit_gb * 1e9 : available ? double(available) + peak.process : 0.0;
         const bool filtering = o.method == "mvf" || o.method == "phf" || o.method == "bdpf";
         // The transfer cache only buys speed: unless --transfer-cache fixes it, it gets what the
         // limit leaves (whole MiB), and only the rest of the render can be refused.
@@ -392,9 +411,10 @@ int run(const Options& o, const renderer::Ranks& ranks) {
                          memory_size(std::uint64_t(std::min(limit, 1e19))).c_str());
         }
         if (limit > 0 && double(estimate) > limit) {
-          // The fewest passes whose pool fits beside the images and a fixed --transfer-cache, with
-          // 10 % to spare (the estimate of a render in more passes is not exactly proportional).
-          const double images = peak.rest - peak.pool, room = limit - images - (o.transfer_cache_mib ? peak.cache : 0);
+          // The fewest passes whose pool fits beside the rest (process, images) and a fixed
+          // --transfer-cache, with 10 % to spare (the estimate of a render in more passes is not
+          // exactly proportional).
+          const double besides_pool = peak.rest - peak.pool, room = limit - besides_pool - (o.transfer_cache_mib ? peak.cache : 0);
           // Named only where the scene allows that many (check_passes would refuse it again).
           const double passes = room > 0 ? std::floor(1.1 * peak.pool * double(mo.passes) / room) + 1 : 0;
           const double allowed = std::visit([&](const auto& m) -> double {
@@ -409,7 +429,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
           fail("this render needs about " + memory_size(estimate) + ", more than " +
                (o.memory_limit_gb ? "--memory-limit" : "the memory available") + " (" +
                memory_size(std::uint64_t(std::min(limit, 1e19))) + "); lower it with " + fewer_passes +
-               (!filtering ? (peak.light_paths > 0 ? "--beta or " : "") : peak.rest < limit ? "--transfer-cache, --beta or " : "--beta or ") +
+               (!filtering ? (peak.light_paths > 0 && o.method != "lt" ? "--beta or " : "") : peak.rest < limit ? "--transfer-cache, --beta or " : "--beta or ") +
                "--width/--height");
         }
         if (o.stats && root)

@@ -50,7 +50,8 @@ class LightTracer {
   /// Adds one iteration's estimate to `image` (sensor-sized): N = #pixels light paths, whose
   /// splats are summed and divided by N (N16). The paths are split into chunk_count chunks whose
   /// splats are applied in chunk order (SplatRecorder), so the image is the same whatever
-  /// `parallel_for` does; non-finite splats are counted in `drops`.
+  /// `parallel_for` does; non-finite splats are counted in `drops`. The splat lists are kept
+  /// for the next iteration (scratch: one render_iteration at a time per object).
   template <ParallelFor P = SerialFor>
   void render_iteration(const Scn& scene, std::uint64_t iteration, Framebuffer<S>& image, DropCounters& drops,
                         const P& parallel_for = {}) const {
@@ -58,18 +59,26 @@ class LightTracer {
     if (image.pixel_count() != n)
       throw std::invalid_argument("segpath::LightTracer: the image has " + std::to_string(image.pixel_count()) +
                                   " pixels, the sensor " + std::to_string(n));
-    SplatRecorder<S> recorder(chunk_count);
     parallel_for(chunk_count, [&](std::size_t chunk) {
-      auto sink = recorder.sink(chunk);
+      auto sink = splats_.sink(chunk);
       for (std::uint64_t k = n * chunk / chunk_count, end = n * (chunk + 1) / chunk_count; k < end; ++k) {
         Pcg32 rng = Pcg32::for_sample(options_.seed ^ stream_salt, k, iteration);
         estimate(scene, EstimateQuery{0, iteration * n + k}, rng, sink);
       }
     });
     Framebuffer<S> sum(image.width(), image.height());
-    recorder.apply(sum, drops);
+    splats_.apply(sum, drops);
     const T inv_n = T(1) / T(n);
     for (std::uint32_t p = 0; p < sum.pixel_count(); ++p) image.add(p, sum[p] * inv_n);
+  }
+
+  /// Bytes of the splats the last iteration recorded: what grows with the light paths (the
+  /// renderer's memory estimate scales them by the pixels).
+  [[nodiscard]] std::size_t light_path_bytes() const noexcept { return splats_.applied_bytes(); }
+  /// Bytes of the splat lists that do not grow with the light paths, at most: the unfilled rest
+  /// of each chunk's last block.
+  [[nodiscard]] static constexpr std::size_t fixed_scratch_bytes() noexcept {
+    return chunk_count * SplatList<S>::block_size * sizeof(typename SplatList<S>::value_type);
   }
 
   /// One light path; q.pixel is ignored. Every camera connection is one sink.add to the
@@ -117,6 +126,7 @@ class LightTracer {
   LightStartSampler<Scn> start_;
   LightNextSegmentSampler<Scn, DiracKernel<T>> next_{DiracKernel<T>{}};
   SensorBridgeSampler<Scn, DiracKernel<T>> camera_{DiracKernel<T>{}};
+  mutable SplatRecorder<S> splats_{chunk_count};  ///< per chunk, in recording order; cleared by apply
 };
 
 }  // namespace segpath

@@ -92,14 +92,19 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
   /// end and count, the photons and their grid (HashGrid::item_bytes), and the splats to the
   /// camera that the iteration recorded before it applied them. Proportional to the light paths
   /// of an iteration, so a renderer can scale a small render's to a larger one's. Not counted:
-  /// unused capacity, the heap's holes, and what does not grow with the paths (the per-chunk
-  /// path buffers of max_length - 1 ends each).
+  /// unused capacity and what does not grow with the paths (fixed_scratch_bytes).
   [[nodiscard]] std::size_t light_path_bytes() const noexcept {
     const Scratch& sc = scratch_;
     std::size_t bytes = sc.light_vertices.size() * sizeof(Vertex);
     bytes += (sc.light_first.size() + sc.light_counts.size() + sc.photons.size()) * sizeof(std::uint32_t);
     for (const auto& ends : sc.chunk_vertices) bytes += ends.size() * sizeof(Vertex);
     return bytes + sc.grid.item_bytes() + sc.splats.applied_bytes();
+  }
+  /// Bytes of the scratch that do not grow with the light paths, at most: per chunk, one path
+  /// buffer of max_length - 1 ends and the unfilled rest of its last block of ends and of splats.
+  [[nodiscard]] std::size_t fixed_scratch_bytes() const noexcept {
+    return chunk_count * ((options_.max_length - 1 + ChunkEnds::block_size) * sizeof(Vertex) +
+                          SplatList<S>::block_size * sizeof(typename SplatList<S>::value_type));
   }
 
   /// The merge radius of every iteration: none for bdpt; else from initial_radius (or
@@ -323,9 +328,9 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
   using VcmWeights<Scn>::scatter_light;
   static constexpr std::uint64_t light_salt = 0x6c69676874ULL;
 
-  /// One chunk's light-subpath ends, in blocks of ~90 KB (float) that never move and are kept
+  /// One chunk's light-subpath ends, in blocks of ~23 KB (float) that never move and are kept
   /// from iteration to iteration (core/block_list.hpp): no doubling, no outgrown buffers.
-  using ChunkEnds = BlockList<Vertex, 1024>;
+  using ChunkEnds = BlockList<Vertex, 256>;
   struct Scratch {
     std::vector<Vertex> light_vertices;                  ///< every light subpath's ends, path after path
     std::vector<std::uint32_t> light_first, light_counts;  ///< per light subpath: its first end there, its count

@@ -44,10 +44,10 @@ class Framebuffer {
   std::vector<S> pixels_;
 };
 
-/// One work chunk's recorded splats, in blocks that never move (64 KB for an RGB float
+/// One work chunk's recorded splats, in blocks that never move (16 KB for an RGB float
 /// spectrum): no doubling as a chunk records, no outgrown buffers left in the heap.
 template <Spectrum S>
-using SplatList = BlockList<std::pair<std::uint32_t, S>>;
+using SplatList = BlockList<std::pair<std::uint32_t, S>, 1024>;
 
 /// A ContributionSink for one work chunk: finite values are recorded, the rest counted.
 template <Spectrum S>

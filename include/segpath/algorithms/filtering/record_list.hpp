@@ -31,8 +31,10 @@ struct Record {
 
 /// One generator's records before pooling, in blocks that never move (core/block_list.hpp):
 /// no copies as the list grows and no outgrown buffers left as holes in the heap that the pool
-/// and the propagation's large arrays cannot reuse (docs/figures.md, session 27).
+/// and the propagation's large arrays cannot reuse (docs/figures.md, session 27). Blocks of 512
+/// records (~75 KB in float): 64 chunks' lists of both sides hold at most ~10 MB they do not
+/// fill (4096 held ~77 MB, the most of a 128 x 128 render's peak: session 31).
 template <Real T, Spectrum S>
-using RecordList = BlockList<Record<T, S>>;
+using RecordList = BlockList<Record<T, S>, 512>;
 
 }  // namespace segpath::filtering
