@@ -122,6 +122,20 @@ std::uint64_t resident_bytes() {
   return page > 0 ? resident * std::uint64_t(page) : 0;
 }
 
+/// This process's peak resident size so far (VmHWM of /proc/self/status), in bytes; 0 if unknown.
+std::uint64_t peak_resident_bytes() {
+  std::ifstream status("/proc/self/status");
+  std::string key;
+  while (status >> key) {
+    if (key == "VmHWM:") {
+      std::uint64_t kib = 0;
+      return status >> kib ? kib * 1024 : 0;
+    }
+    status.ignore(std::numeric_limits<std::streamsize>::max(), '\n');
+  }
+  return 0;
+}
+
 /// The estimate's factor on what LT, BDPT and the VCM family keep in proportion to their light
 /// paths, at its size (light_path_bytes): the lists' last, partly filled blocks and the heap
 /// around them (measured against peak resident sizes at 0.96-1.01: docs/figures.md, session 31).
@@ -538,6 +552,10 @@ int run(const Options& o, const renderer::Ranks& ranks) {
                  o.checkpoint && next > 0 ? ("; continue with --resume " + *o.checkpoint).c_str() : "");
     if (next == 0) return stopped_code;  // nothing rendered: no image, no checkpoint
   }
+  // Rank 0's own peak, to compare with the estimate printed before the render.
+  if (o.stats)
+    if (const std::uint64_t peak = peak_resident_bytes())
+      std::fprintf(stderr, "segpath-render: peak resident memory %s\n", memory_size(peak).c_str());
   if (o.stats && reduction.iterations)
     std::fprintf(stderr,
                  "segpath-render: rank 0 added %llu iterations of other ranks: waiting for them %.3f s in all; per "

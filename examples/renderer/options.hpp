@@ -184,7 +184,8 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
                  "after the default transfer cache of mvf/phf/bdpf has shrunk to what it leaves (default: the memory available)")
       ->check(positive_finite);
   app.add_flag("--stats", o.stats,
-               "mvf/phf/bdpf: print each iteration's segments, clusters, pair evaluations and stage times on stderr");
+               "print the estimated peak memory and, at the end, the peak resident size on stderr; mvf/phf/bdpf: "
+               "also each iteration's segments, clusters, pair evaluations and stage times");
 #if SEGPATH_RENDER_HAS_OBJ
   app.add_option("--camera-position", o.camera_position, "OBJ scenes: camera position x,y,z")->capture_default_str();
   app.add_option("--camera-target", o.camera_target, "OBJ scenes: point the camera looks at, x,y,z")->capture_default_str();

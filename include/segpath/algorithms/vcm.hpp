@@ -13,6 +13,7 @@
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/rng.hpp"
 #include "segpath/core/roulette.hpp"
+#include "segpath/core/scratch_vector.hpp"
 #include "segpath/kernels/dirac.hpp"
 #include "segpath/kernels/hash_grid.hpp"
 #include "segpath/kernels/progressive_radius.hpp"
@@ -198,13 +199,15 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
       });
       std::vector<std::size_t> base(chunks + 1, 0);
       for (std::size_t c = 0; c < chunks; ++c) base[c + 1] = base[c] + sc.chunk_vertices[c].size();
-      sc.light_vertices.resize(base[chunks]);
+      resize_for_overwrite(sc.light_vertices, base[chunks]);
       parallel_for(chunks, [&](std::size_t c) {
         sc.chunk_vertices[c].copy_to(sc.light_vertices.begin() + std::ptrdiff_t(base[c]));
         for (std::size_t i = c * n / chunks; i < (c + 1) * n / chunks; ++i) sc.light_first[i] += static_cast<std::uint32_t>(base[c]);
       });
     }
     if (it.merge) {
+      sc.photons.clear();
+      if (sc.photons.capacity() < sc.light_vertices.size()) resize_for_overwrite(sc.photons, sc.light_vertices.size());
       sc.photons.clear();
       for (std::size_t id = 0; id < sc.light_vertices.size(); ++id)
         if (!sc.light_vertices[id].specular && sc.light_vertices[id].point.kind == PointKind::surface)

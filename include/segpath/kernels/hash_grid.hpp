@@ -4,6 +4,7 @@
 #pragma once
 
 #include "segpath/core/parallel.hpp"
+#include "segpath/core/scratch_vector.hpp"
 #include "segpath/core/vec.hpp"
 
 #include <algorithm>
@@ -122,7 +123,7 @@ class HashGrid {
     const std::size_t groups = std::size_t(1) << group_bits;
     const std::size_t chunks = std::min(count, max_chunks);
     const auto chunk_begin = [&](std::size_t c) { return count * c / chunks; };
-    source_bucket_.resize(count);
+    resize_for_overwrite(source_bucket_, count);
     chunk_group_next_.assign(chunks * groups, 0);
     parallel_for(chunks, [&](std::size_t c) {
       std::uint32_t* counts = chunk_group_next_.data() + c * groups;
@@ -137,7 +138,7 @@ class HashGrid {
         ++counts[b >> group_shift];
       }
     });
-    group_start_.resize(groups + 1);
+    resize_for_overwrite(group_start_, groups + 1);
     std::uint32_t total = 0;
     for (std::size_t g = 0; g < groups; ++g) {
       group_start_[g] = total;
@@ -151,8 +152,8 @@ class HashGrid {
     group_start_[groups] = total;
     // (2) reads the sources in index order (streaming), (3) sorts through a per-thread buffer
     // the size of one run, so the random writes of both stay within cached runs.
-    grouped_bucket_.resize(total);
-    entries_.resize(total);
+    resize_for_overwrite(grouped_bucket_, total);
+    resize_for_overwrite(entries_, total);
     parallel_for(chunks, [&](std::size_t c) {
       std::uint32_t* next = chunk_group_next_.data() + c * groups;
       for (std::size_t i = chunk_begin(c); i < chunk_begin(c + 1); ++i) {
@@ -165,7 +166,7 @@ class HashGrid {
     });
     // Per group, bucket_start_[b + 1] counts bucket b, then holds its start, then (as the
     // placement's cursor) its end, which is the start of b + 1.
-    bucket_start_.resize(buckets + 1);
+    resize_for_overwrite(bucket_start_, buckets + 1);
     bucket_start_[0] = 0;
     const std::size_t group_size = std::size_t(1) << group_shift;
     parallel_for(groups, [&](std::size_t g) {
