@@ -137,8 +137,9 @@ std::uint64_t peak_resident_bytes() {
 }
 
 /// The estimate's factor on what LT, BDPT and the VCM family keep in proportion to their light
-/// paths, at its size (light_path_bytes): the lists' last, partly filled blocks and the heap
-/// around them (measured against peak resident sizes at 0.96-1.01: docs/figures.md, session 31).
+/// paths, at its size (light_path_bytes): the heap around the lists and the vectors' spare 1/8
+/// (resize_for_overwrite). Measured as (peak - PT's peak) / the scaled light_path_bytes at
+/// 1.02-1.05 (docs/figures.md, session 31).
 constexpr double light_path_slack = 1.05;
 
 /// A render's estimated peak memory, in bytes: the transfer cache of the filtering methods apart.
@@ -169,12 +170,14 @@ concept KeepsPaths = requires(M& m) { m.last_stats(); } || requires(M& m) { m.me
 /// up to its budget, scaled linearly (a pass's pool has 1 / passes of the pairs or fewer).
 /// docs/figures.md compares the estimate with the peak resident size.
 PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo, const renderer::RenderScene& scene,
-                           const renderer::Method& render_method) {
+                           const renderer::Method& render_method, double held_image_bytes) {
   const double pixels = double(o.width) * double(o.height);
   PeakEstimate estimate;
   double& bytes = estimate.rest;
   estimate.process = double(resident_bytes());  // before the pilot allocates anything
-  bytes = estimate.process + 64.0 * pixels;     // accumulator (double RGB), the method's image, the output image
+  // The accumulator (double RGB), the method's image, the output image; a resumed checkpoint's
+  // sum, already resident, becomes the accumulator.
+  bytes = estimate.process + std::max(0.0, 64.0 * pixels - held_image_bytes);
   if (!std::visit([](const auto& m) { return KeepsPaths<std::remove_cvref_t<decltype(m)>>; }, render_method)) return estimate;
   // At most 64 x 64 pixels, the render's aspect kept (one side may shrink to 1 pixel).
   Options pilot = o;
@@ -406,13 +409,19 @@ int run(const Options& o, const renderer::Ranks& ranks) {
             }, *method))
           fail("--passes applies to mvf, phf and bdpf only, not to " + o.method);
         tbb::global_control pilot_threads(tbb::global_control::max_allowed_parallelism, o.threads);
-        const PeakEstimate peak = estimated_peak(o, mo, *scene, *method);
+        const double resumed_bytes = resumed ? double(resumed->sum.pixel_count()) * sizeof(resumed->sum[0]) : 0.0;
+        const PeakEstimate peak = estimated_peak(o, mo, *scene, *method, resumed_bytes);
         std::uint64_t estimate = peak.total();
         // In double: a tiny --memory-limit must not round to 0 ("unknown"), a huge one not overflow.
         // The estimate counts the process as it is now; the machine lets it grow by what is available.
         const std::uint64_t available = available_bytes();
         const double limit = o.memory_limit_gb ? *o.memory_limit_gb * 1e9 : available ? double(available) + peak.process : 0.0;
         const bool filtering = o.method == "mvf" || o.method == "phf" || o.method == "bdpf";
+        const bool has_light_paths = o.method != "pt" && o.method != "lt" && o.method != "mvf";  // --beta scales them
+        const char* const limit_name = o.memory_limit_gb ? "--memory-limit" : "the memory available to this process";
+        if (limit > 0 && peak.process >= limit)
+          fail("this process holds " + memory_size(std::uint64_t(peak.process)) + " before it renders, more than " + limit_name +
+               " (" + memory_size(std::uint64_t(std::min(limit, 1e19))) + ")");
         // The transfer cache only buys speed: unless --transfer-cache fixes it, it gets what the
         // limit leaves (whole MiB), and only the rest of the render can be refused.
         if (filtering && !o.transfer_cache_mib && limit > 0 && double(estimate) > limit && peak.rest < limit) {
@@ -421,7 +430,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
           method = renderer::make_method(o.method, mo);
           if (root)
             std::fprintf(stderr, "segpath-render: the transfer cache is limited to %zu MiB to keep the render within %s (%s)\n",
-                         *mo.transfer_cache_mib, o.memory_limit_gb ? "--memory-limit" : "the memory available",
+                         *mo.transfer_cache_mib, limit_name,
                          memory_size(std::uint64_t(std::min(limit, 1e19))).c_str());
         }
         if (limit > 0 && double(estimate) > limit) {
@@ -440,10 +449,9 @@ int run(const Options& o, const renderer::Ranks& ranks) {
           const std::string fewer_passes = filtering && peak.rest >= limit && passes > double(mo.passes) && passes <= allowed
                                                ? "--passes " + std::to_string(std::uint64_t(passes)) + ", "
                                                : "";
-          fail("this render needs about " + memory_size(estimate) + ", more than " +
-               (o.memory_limit_gb ? "--memory-limit" : "the memory available") + " (" +
+          fail("this render needs about " + memory_size(estimate) + ", more than " + limit_name + " (" +
                memory_size(std::uint64_t(std::min(limit, 1e19))) + "); lower it with " + fewer_passes +
-               (!filtering ? (peak.light_paths > 0 && o.method != "lt" ? "--beta or " : "") : peak.rest < limit ? "--transfer-cache, --beta or " : "--beta or ") +
+               (filtering && peak.rest < limit ? "--transfer-cache, " : "") + (has_light_paths ? "--beta or " : "") +
                "--width/--height");
         }
         if (o.stats && root)
@@ -552,10 +560,6 @@ int run(const Options& o, const renderer::Ranks& ranks) {
                  o.checkpoint && next > 0 ? ("; continue with --resume " + *o.checkpoint).c_str() : "");
     if (next == 0) return stopped_code;  // nothing rendered: no image, no checkpoint
   }
-  // Rank 0's own peak, to compare with the estimate printed before the render.
-  if (o.stats)
-    if (const std::uint64_t peak = peak_resident_bytes())
-      std::fprintf(stderr, "segpath-render: peak resident memory %s\n", memory_size(peak).c_str());
   if (o.stats && reduction.iterations)
     std::fprintf(stderr,
                  "segpath-render: rank 0 added %llu iterations of other ranks: waiting for them %.3f s in all; per "
@@ -581,6 +585,11 @@ int run(const Options& o, const renderer::Ranks& ranks) {
   }
   for (const auto& path : o.out) renderer::write_image(image, path);
   if (o.checkpoint) checkpoint(next);  // after the images: a failure here must not lose them
+  // Rank 0's own peak, images and checkpoint written, to compare with the estimate printed
+  // before the render.
+  if (o.stats)
+    if (const std::uint64_t peak = peak_resident_bytes())
+      std::fprintf(stderr, "segpath-render: peak resident memory %s\n", memory_size(peak).c_str());
 
   std::string dropped;
   for (std::size_t r = 0; r < segpath::drop_reason_count; ++r)

@@ -3,6 +3,7 @@
 
 #include <cstddef>
 #include <memory>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -90,4 +91,39 @@ TEST_CASE("BlockList ends the lifetimes of elements that own memory", "[core]") 
     CHECK(shared.use_count() == 4);
   }
   CHECK(shared.use_count() == 1);
+}
+
+namespace {
+/// Holds a shared count and throws from its copy when a countdown reaches zero.
+struct Fragile {
+  static inline int copies_left = -1;  // -1: never throw
+  std::shared_ptr<int> shared;
+  explicit Fragile(std::shared_ptr<int> s) : shared(std::move(s)) {}
+  Fragile(const Fragile& other) : shared(other.shared) {
+    if (copies_left > 0 && --copies_left == 0) throw std::runtime_error("copy failed");
+  }
+  Fragile& operator=(const Fragile&) = default;
+  ~Fragile() = default;
+};
+}  // namespace
+
+TEST_CASE("BlockList: a copy that throws leaves no element behind, an assignment that throws no change", "[core]") {
+  const auto shared = std::make_shared<int>(1);
+  BlockList<Fragile, 2> list;
+  for (int i = 0; i < 5; ++i) list.push_back(Fragile(shared));
+  REQUIRE(shared.use_count() == 6);
+  Fragile::copies_left = 4;  // the fourth copy throws
+  using FragileList = BlockList<Fragile, 2>;
+  CHECK_THROWS_AS(FragileList(list), std::runtime_error);
+  CHECK(shared.use_count() == 6);  // the three copies made were destroyed
+  FragileList target;
+  target.push_back(Fragile(shared));
+  Fragile::copies_left = 3;
+  CHECK_THROWS_AS(target = list, std::runtime_error);
+  Fragile::copies_left = -1;
+  CHECK(target.size() == 1);
+  CHECK(shared.use_count() == 7);
+  target = list;
+  CHECK(target.size() == 5);
+  CHECK(shared.use_count() == 11);
 }

@@ -30,6 +30,8 @@ struct LightTracerOptions {
   std::uint64_t seed = 0;
 };
 
+/// Light tracing on any LightSampledScene. The splat lists are scratch kept in the object and
+/// reused across iterations: one render_iteration at a time per object.
 template <LightSampledScene Scn>
 class LightTracer {
  public:
@@ -50,8 +52,7 @@ class LightTracer {
   /// Adds one iteration's estimate to `image` (sensor-sized): N = #pixels light paths, whose
   /// splats are summed and divided by N (N16). The paths are split into chunk_count chunks whose
   /// splats are applied in chunk order (SplatRecorder), so the image is the same whatever
-  /// `parallel_for` does; non-finite splats are counted in `drops`. The splat lists are kept
-  /// for the next iteration (scratch: one render_iteration at a time per object).
+  /// `parallel_for` does; non-finite splats are counted in `drops`.
   template <ParallelFor P = SerialFor>
   void render_iteration(const Scn& scene, std::uint64_t iteration, Framebuffer<S>& image, DropCounters& drops,
                         const P& parallel_for = {}) const {
@@ -59,6 +60,7 @@ class LightTracer {
     if (image.pixel_count() != n)
       throw std::invalid_argument("segpath::LightTracer: the image has " + std::to_string(image.pixel_count()) +
                                   " pixels, the sensor " + std::to_string(n));
+    splats_.clear();  // what an iteration that threw left
     parallel_for(chunk_count, [&](std::size_t chunk) {
       auto sink = splats_.sink(chunk);
       for (std::uint64_t k = n * chunk / chunk_count, end = n * (chunk + 1) / chunk_count; k < end; ++k) {

@@ -168,6 +168,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
       throw std::invalid_argument("segpath::VertexConnectionMerging: too many light-subpath ends per iteration");
     const Iteration it = iteration_constants(scene, radius, n);
     Scratch& sc = scratch_;
+    sc.splats.clear();  // what an iteration that threw left
     sc.light_first.assign(n, 0);
     sc.light_counts.assign(n, 0);
     sc.light_vertices.clear();
@@ -207,8 +208,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     }
     if (it.merge) {
       sc.photons.clear();
-      if (sc.photons.capacity() < sc.light_vertices.size()) resize_for_overwrite(sc.photons, sc.light_vertices.size());
-      sc.photons.clear();
+      reserve_without_copy(sc.photons, sc.light_vertices.size());
       for (std::size_t id = 0; id < sc.light_vertices.size(); ++id)
         if (!sc.light_vertices[id].specular && sc.light_vertices[id].point.kind == PointKind::surface)
           sc.photons.push_back(static_cast<std::uint32_t>(id));

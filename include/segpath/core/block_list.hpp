@@ -26,16 +26,22 @@ class BlockList {
   static constexpr std::size_t block_size = BlockSize;
 
   BlockList() = default;
-  /// A copy holds the elements only (the blocks they need), not the blocks clear() kept.
-  BlockList(const BlockList& other) {
+  /// A copy holds the elements only (the blocks they need), not the blocks clear() kept. If an
+  /// element's copy throws, the elements copied so far are destroyed.
+  BlockList(const BlockList& other) : BlockList() {
     for (std::size_t i = 0; i < other.size_; ++i) push_back(other[i]);
   }
+  /// Copy and swap: on an exception the list is unchanged.
   BlockList& operator=(const BlockList& other) {
     if (this != &other) {
-      clear();
-      for (std::size_t i = 0; i < other.size_; ++i) push_back(other[i]);
+      BlockList copy(other);
+      swap(copy);
     }
     return *this;
+  }
+  void swap(BlockList& other) noexcept {
+    blocks_.swap(other.blocks_);
+    std::swap(size_, other.size_);
   }
   BlockList(BlockList&& other) noexcept : blocks_(std::move(other.blocks_)), size_(std::exchange(other.size_, 0)) {
     other.blocks_.clear();

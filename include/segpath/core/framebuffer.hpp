@@ -71,6 +71,11 @@ class SplatRecorder {
   /// Bytes of the splats the last apply() added (unused capacity not counted): what an
   /// iteration's recording held at its largest.
   [[nodiscard]] std::size_t applied_bytes() const noexcept { return applied_bytes_; }
+  /// Forgets what was recorded and not applied (an iteration that threw), keeping the blocks.
+  void clear() noexcept {
+    for (auto& list : splats_) list.clear();
+    for (auto& d : drops_) d = {};
+  }
   /// The sink of one chunk; use it from one thread at a time.
   [[nodiscard]] ChunkSink<S> sink(std::size_t chunk) noexcept { return {&splats_[chunk], &drops_[chunk]}; }
   /// Adds every recorded splat to `image` in chunk order, merges the drop counts, and
