@@ -446,13 +446,16 @@ int run(const Options& o, const renderer::Ranks& ranks) {
             else
               return 0;
           }, *method);
-          const std::string fewer_passes = filtering && peak.rest >= limit && passes > double(mo.passes) && passes <= allowed
-                                               ? "--passes " + std::to_string(std::uint64_t(passes)) + ", "
-                                               : "";
+          std::vector<std::string> lower;
+          if (filtering && peak.rest >= limit && passes > double(mo.passes) && passes <= allowed)
+            lower.push_back("--passes " + std::to_string(std::uint64_t(passes)));
+          if (filtering && peak.rest < limit) lower.push_back("--transfer-cache");
+          if (has_light_paths) lower.push_back("--beta");
+          std::string options;
+          for (const std::string& option : lower) options += option + ", ";
+          if (!options.empty()) options.replace(options.size() - 2, 2, " or ");
           fail("this render needs about " + memory_size(estimate) + ", more than " + limit_name + " (" +
-               memory_size(std::uint64_t(std::min(limit, 1e19))) + "); lower it with " + fewer_passes +
-               (filtering && peak.rest < limit ? "--transfer-cache, " : "") + (has_light_paths ? "--beta or " : "") +
-               "--width/--height");
+               memory_size(std::uint64_t(std::min(limit, 1e19))) + "); lower it with " + options + "--width/--height");
         }
         if (o.stats && root)
           std::fprintf(stderr, "segpath-render: estimated peak memory %s (transfer cache %s)\n", memory_size(estimate).c_str(),
