@@ -45,30 +45,28 @@ class ApproximateNextSegmentSampler {
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
                                                                             R& rng) const noexcept {
-    std::optional<SegmentSample<S>> out;
     const T u0 = rng.template uniform<T>();
     const T u1 = rng.template uniform<T>();
     const T u_lobe = rng.template uniform<T>();
     const Segment<T>& prev = t.previous;
     const auto bsdf = scene.bsdf().sample(
         BsdfSampleQuery<T>{prev.y, -t.direction, Vec2<T>(u0, u1), u_lobe, Transport::radiance});
-    if (!bsdf || !(bsdf->pdf > T(0))) return out;
+    if (!bsdf || !(bsdf->pdf > T(0))) return std::nullopt;
     const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{prev.y.position, bsdf->direction}});
-    if (!hit) return out;
+    if (!hit) return std::nullopt;
     // A grazing ray whose hit rounds to the other side of y_i's tangent plane: outside pdf()'s support.
     if (prev.y.kind == PointKind::surface &&
         !(glm::dot(hit->point.position - prev.y.position, prev.y.normal) * glm::dot(bsdf->direction, prev.y.normal) >
           T(0)))
-      return out;
+      return std::nullopt;
     const Segment<T> s{prev.y, hit->point};
     const T p_kernel = kernel().pdf(KernelQuery<T>{prev, s});
-    if (!(p_kernel > T(0))) return out;
+    if (!(p_kernel > T(0))) return std::nullopt;
     const T k = kernel().eval(KernelQuery<T>{prev, s});
     const T cos_x = endpoint_cosine(s.x, bsdf->direction);
     const T area_factor = solid_angle_to_area(T(1), s.x, s.y, bsdf->direction, hit->distance);
-    out.emplace(s, bsdf->direction, link_factor(k, bsdf->value, cos_x * area_factor),
-                p_kernel * bsdf->pdf * area_factor, bsdf->value * ((k / p_kernel) * cos_x / bsdf->pdf), bsdf->delta);
-    return out;
+    return SegmentSample<S>{s, bsdf->direction, link_factor(k, bsdf->value, cos_x * area_factor),
+                            p_kernel * bsdf->pdf * area_factor, bsdf->value * ((k / p_kernel) * cos_x / bsdf->pdf), bsdf->delta};
   }
 
   /// p_K(s.x | s_i) p_w(s^ | y_i, s_i) |n_y . s^| / d^2 as if y were the first hit from x, for

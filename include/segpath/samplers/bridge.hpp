@@ -45,7 +45,6 @@ class KernelBridgeSampler {
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
                                                                             R& rng) const noexcept {
-    std::optional<SegmentSample<S>> out;
     const T u0 = rng.template uniform<T>();
     const T u1 = rng.template uniform<T>();
     const T u2 = rng.template uniform<T>();
@@ -54,10 +53,10 @@ class KernelBridgeSampler {
     T p_x = T(1), p_y = T(1);
     if constexpr (!K::is_dirac) {
       const auto x = kernel_.sample(KernelSampleQuery<T>{t.camera, Vec2<T>(u0, u1)});
-      if (!x || !(x->pdf > T(0))) return out;
+      if (!x || !(x->pdf > T(0))) return std::nullopt;
       const Segment<T> mirror = detail::reversed(t.light);
       const auto y = kernel_.sample(KernelSampleQuery<T>{mirror, Vec2<T>(u2, u3)});
-      if (!y || !(y->pdf > T(0))) return out;
+      if (!y || !(y->pdf > T(0))) return std::nullopt;
       s = Segment<T>{x->point, y->point};
       p_x = x->pdf;
       p_y = y->pdf;
@@ -66,8 +65,8 @@ class KernelBridgeSampler {
     }
     const Vec3<T> delta = s.y.position - s.x.position;
     const T d2 = glm::dot(delta, delta);
-    if (!(d2 > T(0)) || !std::isfinite(d2)) return out;
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return out;
+    if (!(d2 > T(0)) || !std::isfinite(d2)) return std::nullopt;
+    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return std::nullopt;
     const T distance = std::sqrt(d2);
     const Vec3<T> direction = delta / distance;
     const T g = geometry_term(s, direction, distance);
@@ -76,8 +75,7 @@ class KernelBridgeSampler {
       k_x = kernel_.eval(KernelQuery<T>{t.camera, s});
       k_y = kernel_.eval(KernelQuery<T>{s, t.light});
     }
-    out.emplace(s, direction, S(k_x * g * k_y), p_x * p_y, S((k_x / p_x) * (k_y / p_y) * g), false);
-    return out;
+    return SegmentSample<S>{s, direction, S(k_x * g * k_y), p_x * p_y, S((k_x / p_x) * (k_y / p_y) * g), false};
   }
 
   /// p_K(s.x | s_{i-1}) p_K(s.y | s_{i+1}) for any segment s: the density of the two kernel
@@ -128,7 +126,6 @@ class LightBridgeSampler {
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
                                                                             R& rng) const noexcept {
-    std::optional<SegmentSample<S>> out;
     const T u0 = rng.template uniform<T>();
     const T u1 = rng.template uniform<T>();
     const T u2 = rng.template uniform<T>();
@@ -138,25 +135,24 @@ class LightBridgeSampler {
     T p_x = T(1);
     if constexpr (!K::is_dirac) {
       const auto junction = kernel_.sample(KernelSampleQuery<T>{t.camera, Vec2<T>(u0, u1)});
-      if (!junction || !(junction->pdf > T(0))) return out;
+      if (!junction || !(junction->pdf > T(0))) return std::nullopt;
       x = junction->point;
       p_x = junction->pdf;
     } else {
       (void)u0, (void)u1;
     }
     const auto e = scene.emitter().sample_towards(EmitterTowardsQuery<T>{x, Vec2<T>(u2, u3), u_select});
-    if (!e || !(e->pdf > T(0)) || !std::isfinite(e->pdf)) return out;
+    if (!e || !(e->pdf > T(0)) || !std::isfinite(e->pdf)) return std::nullopt;
     const Segment<T> s{x, e->point};
-    if (s.y.kind != PointKind::direction && !(s.length_squared() > T(0))) return out;
+    if (s.y.kind != PointKind::direction && !(s.length_squared() > T(0))) return std::nullopt;
     // A draw that sees the emitter's back (one-sided) carries nothing: no shadow ray for it.
-    if (is_black(e->radiance)) return out;
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return out;
+    if (is_black(e->radiance)) return std::nullopt;
+    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return std::nullopt;
     const Vec3<T> direction = s.direction();
     const T g = geometry_term(s);
     T k = T(1);
     if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{t.camera, s});
-    out.emplace(s, direction, e->radiance * (k * g), p_x * e->pdf, e->radiance * ((k / p_x) * g / e->pdf), e->delta);
-    return out;
+    return SegmentSample<S>{s, direction, e->radiance * (k * g), p_x * e->pdf, e->radiance * ((k / p_x) * g / e->pdf), e->delta};
   }
 
   /// p_K(s.x | s_{i-1}) pdf_towards(s.y | s.x) for any segment s whose emitter end emits
@@ -208,7 +204,6 @@ class SensorBridgeSampler {
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
                                                                             R& rng) const noexcept {
-    std::optional<SegmentSample<S>> out;
     const T u0 = rng.template uniform<T>();
     const T u1 = rng.template uniform<T>();
     const T u2 = rng.template uniform<T>();
@@ -217,13 +212,13 @@ class SensorBridgeSampler {
     const T u5 = rng.template uniform<T>();
     const auto origin =
         scene.sensor().sample_ray(SensorSampleQuery<T>{0, Vec2<T>(u0, u1), Vec2<T>(u4, u5)});
-    if (!origin || !(origin->pdf_position > T(0))) return out;
+    if (!origin || !(origin->pdf_position > T(0))) return std::nullopt;
     SurfacePoint<T> y = t.light.x;
     T p_y = T(1);
     if constexpr (!K::is_dirac) {
       const Segment<T> mirror = detail::reversed(t.light);
       const auto junction = kernel_.sample(KernelSampleQuery<T>{mirror, Vec2<T>(u2, u3)});
-      if (!junction || !(junction->pdf > T(0))) return out;
+      if (!junction || !(junction->pdf > T(0))) return std::nullopt;
       y = junction->point;
       p_y = junction->pdf;
     } else {
@@ -232,17 +227,16 @@ class SensorBridgeSampler {
     const Segment<T> s{origin->origin, y};
     const Vec3<T> delta = s.y.position - s.x.position;
     const T d2 = glm::dot(delta, delta);
-    if (!(d2 > T(0)) || !std::isfinite(d2)) return out;
+    if (!(d2 > T(0)) || !std::isfinite(d2)) return std::nullopt;
     const T distance = std::sqrt(d2);
     const Vec3<T> direction = delta / distance;
     const auto response = scene.sensor().importance(SensorQuery<T>{s.x, direction});
-    if (!response || !(response->importance > T(0))) return out;
-    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return out;
+    if (!response || !(response->importance > T(0))) return std::nullopt;
+    if (!scene.visible(VisibilityQuery<T>{s.x, s.y})) return std::nullopt;
     const T wg = response->importance * geometry_term(s, direction, distance);
     T k = T(1);
     if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{s, t.light});
-    out.emplace(s, direction, S(wg * k), origin->pdf_position * p_y, S(wg * (k / p_y) / origin->pdf_position), false);
-    return out;
+    return SegmentSample<S>{s, direction, S(wg * k), origin->pdf_position * p_y, S(wg * (k / p_y) / origin->pdf_position), false};
   }
 
   /// p_W,pos(s.x) p_K(s.y | s_2) for any segment s the sensor sees (importance() has a

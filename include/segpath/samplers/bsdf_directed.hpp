@@ -33,30 +33,28 @@ class BsdfDirectedSegmentSampler {
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t,
                                                                             R& rng) const noexcept {
-    std::optional<SegmentSample<S>> out;
     const T u0 = rng.template uniform<T>();
     const T u1 = rng.template uniform<T>();
     const T u2 = rng.template uniform<T>();
     const T u3 = rng.template uniform<T>();
     const T u_lobe = rng.template uniform<T>();
     const auto x = scene.sample_area(AreaSampleQuery<T>{Vec2<T>(u0, u1)});
-    if (!x || !(x->pdf > T(0))) return out;
+    if (!x || !(x->pdf > T(0))) return std::nullopt;
     const auto bsdf = scene.bsdf().sample(
         BsdfSampleQuery<T>{x->point, t.to_sensor, Vec2<T>(u2, u3), u_lobe, Transport::radiance});
-    if (!bsdf || !(bsdf->pdf > T(0))) return out;
+    if (!bsdf || !(bsdf->pdf > T(0))) return std::nullopt;
     const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{x->point.position, bsdf->direction}});
-    if (!hit) return out;
+    if (!hit) return std::nullopt;
     // A grazing ray whose hit rounds to the other side of x's tangent plane: outside pdf()'s support.
     if (!(glm::dot(hit->point.position - x->point.position, x->point.normal) *
               glm::dot(bsdf->direction, x->point.normal) > T(0)))
-      return out;
+      return std::nullopt;
     const Segment<T> s{x->point, hit->point};
     const T area_factor = solid_angle_to_area(T(1), s.x, s.y, bsdf->direction, hit->distance);
     const T pdf = x->pdf * bsdf->pdf * area_factor;
-    if (!(pdf > T(0))) return out;
+    if (!(pdf > T(0))) return std::nullopt;
     const T cos_x = endpoint_cosine(s.x, bsdf->direction);
-    out.emplace(s, bsdf->direction, S(cos_x * area_factor), pdf, S(cos_x / (x->pdf * bsdf->pdf)), bsdf->delta);
-    return out;
+    return SegmentSample<S>{s, bsdf->direction, S(cos_x * area_factor), pdf, S(cos_x / (x->pdf * bsdf->pdf)), bsdf->delta};
   }
 
   /// (1/|M|) p_w(s^ | x, s^') |n_y . s^| / d^2 for any segment from a surface point x, as if

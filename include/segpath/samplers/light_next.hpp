@@ -38,28 +38,26 @@ template <class Scn, class K>
     typename Scn::Scalar u_lobe) noexcept {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
-  std::optional<SegmentSample<S>> out;
   const auto bsdf =
       scene.bsdf().sample(BsdfSampleQuery<T>{junction, next_direction, u_bsdf, u_lobe, Transport::importance});
-  if (!bsdf || !(bsdf->pdf > T(0))) return out;
+  if (!bsdf || !(bsdf->pdf > T(0))) return std::nullopt;
   const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{junction.position, bsdf->direction}});
-  if (!hit) return out;
+  if (!hit) return std::nullopt;
   // A grazing ray whose hit rounds to the other side of the junction's tangent plane: outside
   // pdf()'s support.
   if (junction.kind == PointKind::surface &&
       !(glm::dot(hit->point.position - junction.position, junction.normal) * glm::dot(bsdf->direction, junction.normal) >
         T(0)))
-    return out;
+    return std::nullopt;
   const Segment<T> s{hit->point, junction};
   // G(s_i) and the density share |n_x . s^| / d^2; what remains of G is |n_y . s^|.
   const T area_factor = solid_angle_to_area(T(1), junction, hit->point, bsdf->direction, hit->distance);
   const T cos_y = endpoint_cosine(junction, bsdf->direction);
   T k = T(1);
   if constexpr (!K::is_dirac) k = kernel.eval(KernelQuery<T>{s, next});
-  out.emplace(s, -bsdf->direction, link_factor(k, bsdf->value, cos_y * area_factor),
-              junction_pdf * bsdf->pdf * area_factor, bsdf->value * ((k / junction_pdf) * cos_y / bsdf->pdf),
-              bsdf->delta);
-  return out;
+  return SegmentSample<S>{s, -bsdf->direction, link_factor(k, bsdf->value, cos_y * area_factor),
+                          junction_pdf * bsdf->pdf * area_factor, bsdf->value * ((k / junction_pdf) * cos_y / bsdf->pdf),
+                          bsdf->delta};
 }
 
 }  // namespace detail

@@ -35,7 +35,6 @@ class LightStartSampler {
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique&,
                                                                             R& rng) const noexcept {
-    std::optional<SegmentSample<S>> out;
     const T u0 = rng.template uniform<T>();
     const T u1 = rng.template uniform<T>();
     const T u2 = rng.template uniform<T>();
@@ -43,29 +42,28 @@ class LightStartSampler {
     const T u_select = rng.template uniform<T>();
     const auto e =
         scene.emitter().sample_emission(EmissionSampleQuery<T>{Vec2<T>(u0, u1), Vec2<T>(u2, u3), u_select});
-    if (!e) return out;
+    if (!e) return std::nullopt;
     const T pdf_emission = e->pdf_position * e->pdf_direction;
-    if (!(pdf_emission > T(0)) || !std::isfinite(pdf_emission)) return out;
+    if (!(pdf_emission > T(0)) || !std::isfinite(pdf_emission)) return std::nullopt;
     const bool distant = e->point.kind == PointKind::direction;
     const Ray<T> ray = distant ? Ray<T>{e->direction, -e->point.position} : Ray<T>{e->point.position, e->direction};
     const auto hit = scene.intersect(IntersectQuery<T>{ray});
-    if (!hit) return out;
+    if (!hit) return std::nullopt;
     // A grazing ray whose hit rounds to the other side of y's tangent plane than the emitted
     // direction is outside pdf_emission's support (one-sided emitters): reject it.
     if (e->point.kind == PointKind::surface &&
         !(glm::dot(hit->point.position - e->point.position, e->point.normal) * glm::dot(e->direction, e->point.normal) >
           T(0)))
-      return out;
+      return std::nullopt;
     const Vec3<T> direction = -ray.direction;  // s^: from x towards y
     const Segment<T> s{hit->point, e->point};
     // |n_x . s^| / d^2 (|n_x . s^| at a distant light's end): shared by G and p.
     const T area_factor = distant ? endpoint_cosine(s.x, direction)
                                   : solid_angle_to_area(T(1), s.y, s.x, ray.direction, hit->distance);
     const T pdf = pdf_emission * area_factor;
-    if (!(pdf > T(0))) return out;
+    if (!(pdf > T(0))) return std::nullopt;
     const T cos_y = endpoint_cosine(s.y, direction);
-    out.emplace(s, direction, e->radiance * (cos_y * area_factor), pdf, e->radiance * (cos_y / pdf_emission), e->delta);
-    return out;
+    return SegmentSample<S>{s, direction, e->radiance * (cos_y * area_factor), pdf, e->radiance * (cos_y / pdf_emission), e->delta};
   }
 
   /// p(s) of (N30) for any segment as if x were the first hit from y: the emitter's

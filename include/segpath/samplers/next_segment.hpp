@@ -144,16 +144,13 @@ class NextSegmentSampler {
     s.delta = bsdf.delta;
   }
 
-  /// The sample for the segment junction -> y, written straight into the returned optional
-  /// (one object, NRVO; no default-initialised sample overwritten field by field).
+  /// The sample for the segment junction -> y (returned whole, as SegmentSample says).
   SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> segment_to(const Segment<T>& prev,
                                                                   const SurfacePoint<T>& junction, T junction_pdf,
                                                                   const BsdfSample<S>& bsdf, const SurfacePoint<T>& y,
                                                                   T distance) const noexcept {
-    std::optional<SegmentSample<S>> out;
     const Terms terms = terms_of(prev, junction, junction_pdf, bsdf, y, distance);
-    out.emplace(Segment<T>{junction, y}, bsdf.direction, terms.factor, terms.pdf, terms.weight, bsdf.delta);
-    return out;
+    return SegmentSample<S>{Segment<T>{junction, y}, bsdf.direction, terms.factor, terms.pdf, terms.weight, bsdf.delta};
   }
 
   /// Factor, density and weight of the segment junction -> y drawn from `prev`.

@@ -27,28 +27,26 @@ class RaytracedSegmentSampler {
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique&,
                                                                             R& rng) const noexcept {
-    std::optional<SegmentSample<S>> out;
     const T u0 = rng.template uniform<T>();
     const T u1 = rng.template uniform<T>();
     const T u2 = rng.template uniform<T>();
     const T u3 = rng.template uniform<T>();
     const auto x = scene.sample_area(AreaSampleQuery<T>{Vec2<T>(u0, u1)});
-    if (!x || !(x->pdf > T(0))) return out;
+    if (!x || !(x->pdf > T(0))) return std::nullopt;
     const Vec3<T> local = square_to_cosine_hemisphere(Vec2<T>(u2, u3));
     const T pdf_direction = square_to_cosine_hemisphere_pdf(local);
-    if (!(pdf_direction > T(0))) return out;
+    if (!(pdf_direction > T(0))) return std::nullopt;
     const Vec3<T> direction = Frame<T>::from_normal(x->point.normal).to_world(local);
     const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{x->point.position, direction}});
-    if (!hit) return out;
+    if (!hit) return std::nullopt;
     // A grazing ray whose hit rounds to behind x's tangent plane is outside pdf()'s support.
-    if (!(glm::dot(hit->point.position - x->point.position, x->point.normal) > T(0))) return out;
+    if (!(glm::dot(hit->point.position - x->point.position, x->point.normal) > T(0))) return std::nullopt;
     const Segment<T> s{x->point, hit->point};
     const T area_factor = solid_angle_to_area(T(1), s.x, s.y, direction, hit->distance);
     const T pdf = x->pdf * pdf_direction * area_factor;
-    if (!(pdf > T(0))) return out;
+    if (!(pdf > T(0))) return std::nullopt;
     // G = cos_x |n_y . s^| / d^2 and p share |n_y . s^| / d^2; cos_x / (cos_x / pi) = pi.
-    out.emplace(s, direction, S(local.z * area_factor), pdf, S(pi<T> / x->pdf), false);
-    return out;
+    return SegmentSample<S>{s, direction, S(local.z * area_factor), pdf, S(pi<T> / x->pdf), false};
   }
 
   /// (1/|M|) (cos_x / pi) |n_y . s^| / d^2 for any segment between surface points whose

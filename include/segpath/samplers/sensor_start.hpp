@@ -27,13 +27,12 @@ class SensorStartSampler {
   /// (visibility holds by construction: y_1 is the first hit).
   template <UniformSource<T> R>
   [[nodiscard]] std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique& t, R& rng) const noexcept {
-    std::optional<SegmentSample<S>> out;  // the one returned object (NRVO)
     const Vec2<T> u_position = uniform2<T>(rng);
     const Vec2<T> u_direction = uniform2<T>(rng);
     const auto ray = scene.sensor().sample_ray(SensorSampleQuery<T>{t.pixel, u_position, u_direction});
-    if (!ray) return out;
+    if (!ray) return std::nullopt;
     const T pdf_ray = ray->pdf_position * ray->pdf_direction;
-    if (!(pdf_ray > T(0))) return out;
+    if (!(pdf_ray > T(0))) return std::nullopt;
     const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{ray->origin.position, ray->direction}});
     // A ray that leaves the scene ends at infinity (a `direction` endpoint), where an
     // environment emitter may shine; its density is in solid angle there.
@@ -43,9 +42,8 @@ class SensorStartSampler {
     // W G / p: the |n_y . s^| / d^2 of G and of the density cancel.
     const T area_factor = solid_angle_to_area(T(1), ray->origin, y, ray->direction, distance);
     const T cos_x = endpoint_cosine(ray->origin, ray->direction);
-    out.emplace(Segment<T>{ray->origin, y}, ray->direction, S(ray->importance * cos_x * area_factor),
-                pdf_ray * area_factor, S(ray->importance * cos_x / pdf_ray), false);
-    return out;
+    return SegmentSample<S>{Segment<T>{ray->origin, y}, ray->direction, S(ray->importance * cos_x * area_factor),
+                            pdf_ray * area_factor, S(ray->importance * cos_x / pdf_ray), false};
   }
 
   /// p(s | pixel) as if y were the first hit from x: ray_pdf(x, s^) |n_y . s^| / d^2, zero

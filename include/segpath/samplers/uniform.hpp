@@ -26,25 +26,23 @@ class UniformSegmentSampler {
   template <UniformSource<T> R>
   [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<SegmentSample<S>> sample(const Scn& scene, const Technique&,
                                                                             R& rng) const noexcept {
-    std::optional<SegmentSample<S>> out;
     const T u0 = rng.template uniform<T>();
     const T u1 = rng.template uniform<T>();
     const T u2 = rng.template uniform<T>();
     const T u3 = rng.template uniform<T>();
     const auto x = scene.sample_area(AreaSampleQuery<T>{Vec2<T>(u0, u1)});
-    if (!x) return out;
+    if (!x) return std::nullopt;
     const auto y = scene.sample_area(AreaSampleQuery<T>{Vec2<T>(u2, u3)});
-    if (!y) return out;
+    if (!y) return std::nullopt;
     const T pdf = x->pdf * y->pdf;
     const Vec3<T> delta = y->point.position - x->point.position;
     const T d2 = glm::dot(delta, delta);
-    if (!(pdf > T(0)) || !(d2 > T(0)) || !std::isfinite(d2)) return out;
+    if (!(pdf > T(0)) || !(d2 > T(0)) || !std::isfinite(d2)) return std::nullopt;
     const T distance = std::sqrt(d2);
     const Vec3<T> direction = delta / distance;
     const Segment<T> s{x->point, y->point};
     const T g = scene.visible(VisibilityQuery<T>{s.x, s.y}) ? geometry_term(s, direction, distance) : T(0);
-    out.emplace(s, direction, S(g), pdf, S(g / pdf), false);
-    return out;
+    return SegmentSample<S>{s, direction, S(g), pdf, S(g / pdf), false};
   }
 
   /// 1/|M|^2 for any segment between two surface points, 0 for point and direction
