@@ -139,7 +139,9 @@ template <Real T>
     const auto [b1, b2] = brute_force_barycentrics(tris, best_k, q, best);
     hit = BruteForceHit{best, tris.id[best_k], false, b1, b2};
   }
+  const EmbreeQueryBands bands = embree_query_bands<T>(q);
   for (std::uint32_t k = 0; k < data.spheres.size(); ++k) {
+    if (!embree_sphere_nearby(data.spheres[k], q, bands)) continue;
     const std::optional<double> ts = embree_sphere_distance(data, k, q);
     if (ts && *ts < best) {
       best = *ts;
@@ -164,8 +166,9 @@ template <Real T>
     for (std::size_t l = 0; l < count; ++l) blocked |= t[l] < q.t_max;
     if (blocked) return true;
   }
+  const EmbreeQueryBands bands = embree_query_bands<T>(q);
   for (std::uint32_t k = 0; k < data.spheres.size(); ++k)
-    if (embree_sphere_distance(data, k, q)) return true;
+    if (embree_sphere_nearby(data.spheres[k], q, bands) && embree_sphere_distance(data, k, q)) return true;
   return false;
 }
 

@@ -151,6 +151,31 @@ template <Real T>
   return t > 0 && t < q.t_max;
 }
 
+/// A query's endpoint bands without a surface's own scale: embree_on_surface_tolerance(p, 0)
+/// of its origin and, where it skips its far surface, of its far point (else 0). A surface of
+/// scale k adds 2^-48 k to them, as embree_on_surface_tolerance(p, k) does, with the same result.
+struct EmbreeQueryBands {
+  double origin = 0;
+  double far = 0;
+};
+template <Real T>
+[[nodiscard]] EmbreeQueryBands embree_query_bands(const EmbreeQueryContext& q) noexcept {
+  return {embree_on_surface_tolerance<T>(q.origin, 0.0), q.skip_far_surface ? embree_on_surface_tolerance<T>(q.far_point, 0.0) : 0.0};
+}
+
+/// Whether the query's line passes sphere `s` within its radius plus twice either endpoint's
+/// on-surface band. A line that passes it farther meets it nowhere and has neither endpoint on
+/// it (every point of the line is at least |h| from the centre): the common miss, decided
+/// without embree_sphere_distance's square roots, and inline in the direct traversal.
+[[nodiscard]] SEGPATH_FORCE_INLINE bool embree_sphere_nearby(const EmbreeSphereData& s, const EmbreeQueryContext& q,
+                                                             const EmbreeQueryBands& bands) noexcept {
+  const Vec3<double> oc = q.origin - s.center;
+  const Vec3<double> h = oc - glm::dot(oc, q.direction) * q.direction;
+  const double surface = 0x1p-48 * s.scale;
+  const double band = 2 * std::max(bands.origin + surface, q.skip_far_surface ? bands.far + surface : 0.0);
+  return !(glm::dot(h, h) > (s.radius + band) * (s.radius + band));
+}
+
 /// The nearest exact distance in (0, t_max) at which the query meets sphere `id`, not counting
 /// the points its endpoints lie on: from a point on the sphere the line meets it again only
 /// at the end of the chord, t = -2 b (b = (o - c).d).
@@ -159,16 +184,11 @@ template <Real T>
                                                            unsigned id,
                                                            const EmbreeQueryContext& q) noexcept {
   const EmbreeSphereData& s = data.spheres[id];
+  if (!embree_sphere_nearby(s, q, embree_query_bands<T>(q))) return std::nullopt;
   const Vec3<double> oc = q.origin - s.center;
   const Vec3<double>& d = q.direction;
   const double b = glm::dot(oc, d);
-  // A line that passes the sphere farther than twice either endpoint's on-surface band meets it
-  // nowhere and has neither endpoint on it (every point of the line is at least |h| from the
-  // centre): the common miss, decided without the square roots below.
   const Vec3<double> h = oc - b * d;
-  const double band = 2 * std::max(embree_on_surface_tolerance<T>(q.origin, s.scale),
-                                   q.skip_far_surface ? embree_on_surface_tolerance<T>(q.far_point, s.scale) : 0.0);
-  if (glm::dot(h, h) > (s.radius + band) * (s.radius + band)) return std::nullopt;
   const bool on_origin =
       std::abs(glm::length(oc) - s.radius) <= embree_on_surface_tolerance<T>(q.origin, s.scale);
   const bool on_far =
