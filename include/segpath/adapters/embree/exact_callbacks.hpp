@@ -156,23 +156,24 @@ template <Real T>
 /// scale k adds 2^-48 k to them, as embree_on_surface_tolerance(p, k) does, with the same result.
 struct EmbreeQueryBands {
   double origin = 0;
-  double far = 0;
+  double far_end = 0;
 };
 template <Real T>
 [[nodiscard]] EmbreeQueryBands embree_query_bands(const EmbreeQueryContext& q) noexcept {
   return {embree_on_surface_tolerance<T>(q.origin, 0.0), q.skip_far_surface ? embree_on_surface_tolerance<T>(q.far_point, 0.0) : 0.0};
 }
 
-/// Whether the query's line passes sphere `s` within its radius plus twice either endpoint's
-/// on-surface band. A line that passes it farther meets it nowhere and has neither endpoint on
-/// it (every point of the line is at least |h| from the centre): the common miss, decided
-/// without embree_sphere_distance's square roots, and inline in the direct traversal.
+/// false where the query's line passes sphere `s` farther than its radius plus twice either
+/// endpoint's on-surface band: it meets the sphere nowhere and has neither endpoint on it (every
+/// point of the line is at least |h| from the centre). The common miss, decided without
+/// embree_sphere_distance's square roots and inline in the direct traversal; true wherever it
+/// cannot rule a meeting out (non-finite input included).
 [[nodiscard]] SEGPATH_FORCE_INLINE bool embree_sphere_nearby(const EmbreeSphereData& s, const EmbreeQueryContext& q,
                                                              const EmbreeQueryBands& bands) noexcept {
   const Vec3<double> oc = q.origin - s.center;
   const Vec3<double> h = oc - glm::dot(oc, q.direction) * q.direction;
   const double surface = 0x1p-48 * s.scale;
-  const double band = 2 * std::max(bands.origin + surface, q.skip_far_surface ? bands.far + surface : 0.0);
+  const double band = 2 * std::max(bands.origin + surface, q.skip_far_surface ? bands.far_end + surface : 0.0);
   return !(glm::dot(h, h) > (s.radius + band) * (s.radius + band));
 }
 
