@@ -1,12 +1,9 @@
 # Runs BINARY with ARGS (separated by |; they must include --stats and --memory-limit) and checks
 # that it succeeds, that the peak resident size it prints at the end stays within LIMIT_MB, and
 # that the estimate it printed before the render is at least 95 % of that peak. Optional ERR:
-# further regular expressions (separated by |) that stderr must match.
-string(REPLACE "|" ";" ARGS "${ARGS}")
-execute_process(COMMAND ${BINARY} ${ARGS} RESULT_VARIABLE code OUTPUT_VARIABLE out ERROR_VARIABLE err)
-if(NOT code STREQUAL "0")
-  message(FATAL_ERROR "expected exit code 0 for '${ARGS}', got '${code}'; stderr: ${err}")
-endif()
+# further regular expressions (separated by |) that stderr must match. The run, its exit code
+# and ERR are expect_success.cmake's; its stderr is in `err` here.
+include(${CMAKE_CURRENT_LIST_DIR}/expect_success.cmake)
 # "12.3 MB" -> bytes / 100 in integers (memory_size prints one decimal, decimal units).
 function(hundreds_of_bytes text out)
   if(NOT text MATCHES "^([0-9]+)\\.([0-9]) (kB|MB|GB)$")
@@ -39,10 +36,4 @@ math(EXPR scaled_peak "${peak} * 95")
 if(scaled_estimate LESS scaled_peak)
   message(FATAL_ERROR "'${ARGS}': the estimate (${estimate}00 bytes) is below 95 % of the peak (${peak}00 bytes)")
 endif()
-string(REPLACE "|" ";" ERR "${ERR}")
-foreach(expression IN LISTS ERR)
-  if(NOT err MATCHES "${expression}")
-    message(FATAL_ERROR "expected stderr of '${ARGS}' to match '${expression}', got: ${err}")
-  endif()
-endforeach()
 message(STATUS "'${ARGS}': estimate ${estimate}00 bytes, peak ${peak}00 bytes")
