@@ -7,6 +7,7 @@
 #include <string>
 
 #include "segpath/concepts/bsdf.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/materials/scattering.hpp"
 
 namespace segpath {
@@ -80,7 +81,7 @@ class Dielectric {
       // Reflection stays on the fixed side.
       if (!(std::abs(cosine) > one_sided_epsilon<Scalar>) || (cosine > Scalar(0)) != outside)
         return std::nullopt;
-      return BsdfSample<S>{direction, S(f / std::abs(cosine)), f, true};
+      return in_place_optional<BsdfSample<S>>(direction, S(f / std::abs(cosine)), f, true);
     }
     if (!(cos_t >= Scalar(0))) return std::nullopt;
     const Vec3<Scalar> direction = refract(q.fixed, m, cos_i, cos_t, e);
@@ -89,8 +90,7 @@ class Dielectric {
       return std::nullopt;
     const Scalar transmittance = Scalar(1) - f;
     const Scalar scale = q.mode == Transport::radiance ? e * e : Scalar(1);
-    return BsdfSample<S>{direction, S(transmittance * scale / std::abs(cosine)), transmittance,
-                         true};
+    return in_place_optional<BsdfSample<S>>(direction, S(transmittance * scale / std::abs(cosine)), transmittance, true);
   }
 
   [[nodiscard]] Scalar pdf(const BsdfQuery<Scalar>&) const noexcept { return Scalar(0); }

@@ -2,6 +2,7 @@
 #pragma once
 
 #include "segpath/concepts/bsdf.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 #include "segpath/materials/scattering.hpp"
 
@@ -26,7 +27,7 @@ struct Lambertian {
     const Vec3<Scalar> direction = q.point.shading_frame().to_world(local);
     const Scalar pdf = square_to_cosine_hemisphere_pdf(local);
     if (!(pdf > Scalar(0)) || !is_above(q.point, direction)) return std::nullopt;
-    return BsdfSample<S>{direction, albedo * inv_pi<Scalar>, pdf, false};
+    return in_place_optional<BsdfSample<S>>(direction, albedo * inv_pi<Scalar>, pdf, false);
   }
 
   /// One-sided: nothing is scattered from behind the geometric normal (HasScattersFrom).

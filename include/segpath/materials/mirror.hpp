@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "segpath/concepts/bsdf.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/materials/scattering.hpp"
 
 namespace segpath {
@@ -39,7 +40,7 @@ class Mirror {
     const Vec3<Scalar> direction = reflect(q.fixed, q.point.shading_normal);
     const Scalar cosine = glm::dot(direction, q.point.normal);
     if (!(cosine > one_sided_epsilon<Scalar>)) return std::nullopt;
-    return BsdfSample<S>{direction, reflectance_ / cosine, Scalar(1), true};
+    return in_place_optional<BsdfSample<S>>(direction, reflectance_ / cosine, Scalar(1), true);
   }
 
   [[nodiscard]] Scalar pdf(const BsdfQuery<Scalar>&) const noexcept { return Scalar(0); }

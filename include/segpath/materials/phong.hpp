@@ -10,6 +10,7 @@
 
 #include "segpath/concepts/bsdf.hpp"
 #include "segpath/core/frame.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/materials/scattering.hpp"
 
 namespace segpath {
@@ -71,7 +72,7 @@ class Phong {
     const Scalar lobe = lobe_of(q.point, q.fixed, direction);
     const Scalar pdf = pdf_scale_ * lobe;
     if (!(pdf > Scalar(0)) || !std::isfinite(pdf)) return std::nullopt;
-    return BsdfSample<S>{direction, coefficient_ * (eval_scale_ * lobe), pdf, false};
+    return in_place_optional<BsdfSample<S>>(direction, coefficient_ * (eval_scale_ * lobe), pdf, false);
   }
 
   [[nodiscard]] Scalar pdf(const BsdfQuery<Scalar>& q) const noexcept {
