@@ -7,6 +7,7 @@
 #include <segpath/concepts/sampler.hpp>
 #include <segpath/concepts/scene.hpp>
 #include <segpath/core/geometry.hpp>
+#include <segpath/core/in_place_optional.hpp>
 #include <segpath/core/warp.hpp>
 
 #include <cmath>
@@ -36,7 +37,7 @@ class CosineSurfaceSampler {
     const T p = unoccluded_pdf(scene, t, s);
     if (!(p > T(0))) return std::nullopt;
     const T g = segpath::geometry_term(s);
-    return segpath::SegmentSample<S>{s, direction, S(g), p, S(g / p), false};
+    return segpath::in_place_optional<segpath::SegmentSample<S>>(s, direction, S(g), p, S(g / p), false);
   }
 
   /// p(s) = p_A(x) cos_x / pi |cos_y| / d^2 in area x area, assuming y is the first hit from x.

@@ -22,10 +22,6 @@ namespace segpath {
 /// successor, L_e G for a light-start segment, G(s) for an unconditional sampler. Where
 /// the sample went through a Dirac delta (specular BSDF, Dirac kernel, pinhole), factor and
 /// pdf are the coefficients of the same delta.
-// Samplers return it whole (`return SegmentSample<S>{...};` into the optional), not through
-// `optional::emplace(...)`: GCC 12's parenthesised aggregate initialisation there zero-fills the
-// ~140-byte sample with a `rep stos` before storing its fields (PT's next-event draw stalled on
-// it; docs/figures.md, session 32).
 template <class S>
 struct SegmentSample {
   using Scalar = spectrum_scalar_t<S>;

@@ -6,6 +6,7 @@
 #include "segpath/concepts/kernel.hpp"
 #include "segpath/concepts/sampler.hpp"
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/integrand/contribution.hpp"
 #include "segpath/core/geometry.hpp"
 #include "segpath/samplers/light_next.hpp"
@@ -65,8 +66,8 @@ class ApproximateNextSegmentSampler {
     const T k = kernel().eval(KernelQuery<T>{prev, s});
     const T cos_x = endpoint_cosine(s.x, bsdf->direction);
     const T area_factor = solid_angle_to_area(T(1), s.x, s.y, bsdf->direction, hit->distance);
-    return SegmentSample<S>{s, bsdf->direction, link_factor(k, bsdf->value, cos_x * area_factor),
-                            p_kernel * bsdf->pdf * area_factor, bsdf->value * ((k / p_kernel) * cos_x / bsdf->pdf), bsdf->delta};
+    return in_place_optional<SegmentSample<S>>(s, bsdf->direction, link_factor(k, bsdf->value, cos_x * area_factor),
+                                               p_kernel * bsdf->pdf * area_factor, bsdf->value * ((k / p_kernel) * cos_x / bsdf->pdf), bsdf->delta);
   }
 
   /// p_K(s.x | s_i) p_w(s^ | y_i, s_i) |n_y . s^| / d^2 as if y were the first hit from x, for

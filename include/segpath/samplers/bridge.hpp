@@ -7,6 +7,7 @@
 #include "segpath/concepts/sampler.hpp"
 #include "segpath/concepts/scene.hpp"
 #include "segpath/core/geometry.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/samplers/light_next.hpp"
 
 #include <cmath>
@@ -75,7 +76,7 @@ class KernelBridgeSampler {
       k_x = kernel_.eval(KernelQuery<T>{t.camera, s});
       k_y = kernel_.eval(KernelQuery<T>{s, t.light});
     }
-    return SegmentSample<S>{s, direction, S(k_x * g * k_y), p_x * p_y, S((k_x / p_x) * (k_y / p_y) * g), false};
+    return in_place_optional<SegmentSample<S>>(s, direction, S(k_x * g * k_y), p_x * p_y, S((k_x / p_x) * (k_y / p_y) * g), false);
   }
 
   /// p_K(s.x | s_{i-1}) p_K(s.y | s_{i+1}) for any segment s: the density of the two kernel
@@ -152,7 +153,7 @@ class LightBridgeSampler {
     const T g = geometry_term(s);
     T k = T(1);
     if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{t.camera, s});
-    return SegmentSample<S>{s, direction, e->radiance * (k * g), p_x * e->pdf, e->radiance * ((k / p_x) * g / e->pdf), e->delta};
+    return in_place_optional<SegmentSample<S>>(s, direction, e->radiance * (k * g), p_x * e->pdf, e->radiance * ((k / p_x) * g / e->pdf), e->delta);
   }
 
   /// p_K(s.x | s_{i-1}) pdf_towards(s.y | s.x) for any segment s whose emitter end emits
@@ -236,7 +237,7 @@ class SensorBridgeSampler {
     const T wg = response->importance * geometry_term(s, direction, distance);
     T k = T(1);
     if constexpr (!K::is_dirac) k = kernel_.eval(KernelQuery<T>{s, t.light});
-    return SegmentSample<S>{s, direction, S(wg * k), origin->pdf_position * p_y, S(wg * (k / p_y) / origin->pdf_position), false};
+    return in_place_optional<SegmentSample<S>>(s, direction, S(wg * k), origin->pdf_position * p_y, S(wg * (k / p_y) / origin->pdf_position), false);
   }
 
   /// p_W,pos(s.x) p_K(s.y | s_2) for any segment s the sensor sees (importance() has a

@@ -6,6 +6,7 @@
 #include "segpath/concepts/sampler.hpp"
 #include "segpath/concepts/scene.hpp"
 #include "segpath/core/geometry.hpp"
+#include "segpath/core/in_place_optional.hpp"
 
 #include <cmath>
 #include <optional>
@@ -54,7 +55,7 @@ class BsdfDirectedSegmentSampler {
     const T pdf = x->pdf * bsdf->pdf * area_factor;
     if (!(pdf > T(0))) return std::nullopt;
     const T cos_x = endpoint_cosine(s.x, bsdf->direction);
-    return SegmentSample<S>{s, bsdf->direction, S(cos_x * area_factor), pdf, S(cos_x / (x->pdf * bsdf->pdf)), bsdf->delta};
+    return in_place_optional<SegmentSample<S>>(s, bsdf->direction, S(cos_x * area_factor), pdf, S(cos_x / (x->pdf * bsdf->pdf)), bsdf->delta);
   }
 
   /// (1/|M|) p_w(s^ | x, s^') |n_y . s^| / d^2 for any segment from a surface point x, as if

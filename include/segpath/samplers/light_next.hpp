@@ -6,6 +6,7 @@
 #include "segpath/concepts/kernel.hpp"
 #include "segpath/concepts/sampler.hpp"
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/integrand/contribution.hpp"
 #include "segpath/core/geometry.hpp"
 
@@ -55,9 +56,9 @@ template <class Scn, class K>
   const T cos_y = endpoint_cosine(junction, bsdf->direction);
   T k = T(1);
   if constexpr (!K::is_dirac) k = kernel.eval(KernelQuery<T>{s, next});
-  return SegmentSample<S>{s, -bsdf->direction, link_factor(k, bsdf->value, cos_y * area_factor),
-                          junction_pdf * bsdf->pdf * area_factor, bsdf->value * ((k / junction_pdf) * cos_y / bsdf->pdf),
-                          bsdf->delta};
+  return in_place_optional<SegmentSample<S>>(s, -bsdf->direction, link_factor(k, bsdf->value, cos_y * area_factor),
+                                             junction_pdf * bsdf->pdf * area_factor, bsdf->value * ((k / junction_pdf) * cos_y / bsdf->pdf),
+                                             bsdf->delta);
 }
 
 }  // namespace detail

@@ -5,6 +5,7 @@
 #include "segpath/concepts/sampler.hpp"
 #include "segpath/concepts/scene.hpp"
 #include "segpath/core/geometry.hpp"
+#include "segpath/core/in_place_optional.hpp"
 
 #include <cmath>
 #include <optional>
@@ -63,7 +64,7 @@ class LightStartSampler {
     const T pdf = pdf_emission * area_factor;
     if (!(pdf > T(0))) return std::nullopt;
     const T cos_y = endpoint_cosine(s.y, direction);
-    return SegmentSample<S>{s, direction, e->radiance * (cos_y * area_factor), pdf, e->radiance * (cos_y / pdf_emission), e->delta};
+    return in_place_optional<SegmentSample<S>>(s, direction, e->radiance * (cos_y * area_factor), pdf, e->radiance * (cos_y / pdf_emission), e->delta);
   }
 
   /// p(s) of (N30) for any segment as if x were the first hit from y: the emitter's

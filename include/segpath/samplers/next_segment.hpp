@@ -7,6 +7,7 @@
 #include "segpath/concepts/kernel.hpp"
 #include "segpath/concepts/sampler.hpp"
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/integrand/contribution.hpp"
 #include "segpath/core/geometry.hpp"
 
@@ -150,7 +151,7 @@ class NextSegmentSampler {
                                                                   const BsdfSample<S>& bsdf, const SurfacePoint<T>& y,
                                                                   T distance) const noexcept {
     const Terms terms = terms_of(prev, junction, junction_pdf, bsdf, y, distance);
-    return SegmentSample<S>{Segment<T>{junction, y}, bsdf.direction, terms.factor, terms.pdf, terms.weight, bsdf.delta};
+    return in_place_optional<SegmentSample<S>>(Segment<T>{junction, y}, bsdf.direction, terms.factor, terms.pdf, terms.weight, bsdf.delta);
   }
 
   /// Factor, density and weight of the segment junction -> y drawn from `prev`.

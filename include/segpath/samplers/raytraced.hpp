@@ -5,6 +5,7 @@
 #include "segpath/concepts/sampler.hpp"
 #include "segpath/concepts/scene.hpp"
 #include "segpath/core/geometry.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 
 #include <optional>
@@ -46,7 +47,7 @@ class RaytracedSegmentSampler {
     const T pdf = x->pdf * pdf_direction * area_factor;
     if (!(pdf > T(0))) return std::nullopt;
     // G = cos_x |n_y . s^| / d^2 and p share |n_y . s^| / d^2; cos_x / (cos_x / pi) = pi.
-    return SegmentSample<S>{s, direction, S(local.z * area_factor), pdf, S(pi<T> / x->pdf), false};
+    return in_place_optional<SegmentSample<S>>(s, direction, S(local.z * area_factor), pdf, S(pi<T> / x->pdf), false);
   }
 
   /// (1/|M|) (cos_x / pi) |n_y . s^| / d^2 for any segment between surface points whose

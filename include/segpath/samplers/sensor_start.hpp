@@ -5,6 +5,7 @@
 #include "segpath/concepts/sampler.hpp"
 #include "segpath/concepts/scene.hpp"
 #include "segpath/core/geometry.hpp"
+#include "segpath/core/in_place_optional.hpp"
 
 #include <cstdint>
 #include <optional>
@@ -42,8 +43,8 @@ class SensorStartSampler {
     // W G / p: the |n_y . s^| / d^2 of G and of the density cancel.
     const T area_factor = solid_angle_to_area(T(1), ray->origin, y, ray->direction, distance);
     const T cos_x = endpoint_cosine(ray->origin, ray->direction);
-    return SegmentSample<S>{Segment<T>{ray->origin, y}, ray->direction, S(ray->importance * cos_x * area_factor),
-                            pdf_ray * area_factor, S(ray->importance * cos_x / pdf_ray), false};
+    return in_place_optional<SegmentSample<S>>(Segment<T>{ray->origin, y}, ray->direction, S(ray->importance * cos_x * area_factor),
+                                               pdf_ray * area_factor, S(ray->importance * cos_x / pdf_ray), false);
   }
 
   /// p(s | pixel) as if y were the first hit from x: ray_pdf(x, s^) |n_y . s^| / d^2, zero

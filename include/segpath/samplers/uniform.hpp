@@ -5,6 +5,7 @@
 #include "segpath/concepts/sampler.hpp"
 #include "segpath/concepts/scene.hpp"
 #include "segpath/core/geometry.hpp"
+#include "segpath/core/in_place_optional.hpp"
 
 #include <cmath>
 #include <optional>
@@ -42,7 +43,7 @@ class UniformSegmentSampler {
     const Vec3<T> direction = delta / distance;
     const Segment<T> s{x->point, y->point};
     const T g = scene.visible(VisibilityQuery<T>{s.x, s.y}) ? geometry_term(s, direction, distance) : T(0);
-    return SegmentSample<S>{s, direction, S(g), pdf, S(g / pdf), false};
+    return in_place_optional<SegmentSample<S>>(s, direction, S(g), pdf, S(g / pdf), false);
   }
 
   /// 1/|M|^2 for any segment between two surface points, 0 for point and direction
