@@ -3,6 +3,7 @@
 #pragma once
 
 #include "segpath/concepts/manifold.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 #include "segpath/adapters/embree/brute_force.hpp"
 #include "segpath/adapters/embree/exact_callbacks.hpp"
@@ -197,7 +198,7 @@ class EmbreeManifold {
     }
     p.primitive_id = std::uint32_t(id);
     p.kind = PointKind::surface;
-    return AreaSample<T>{p, T(1) / area()};
+    return in_place_optional<AreaSample<T>>(p, T(1) / area());
   }
 
   /// The closest hit with distance in (0, t_max) (Manifold requirement 8); surfaces the

@@ -3,6 +3,7 @@
 #pragma once
 
 #include "segpath/concepts/kernel.hpp"
+#include "segpath/core/in_place_optional.hpp"
 
 namespace segpath {
 
@@ -18,7 +19,7 @@ struct DiracKernel {
     return q.to.x.position == q.from.y.position ? T(1) : T(0);
   }
   [[nodiscard]] std::optional<KernelSample<T>> sample(const KernelSampleQuery<T>& q) const noexcept {
-    return KernelSample<T>{q.from.y, T(1)};
+    return in_place_optional<KernelSample<T>>(q.from.y, T(1));
   }
   [[nodiscard]] T pdf(const KernelQuery<T>& q) const noexcept { return eval(q); }
   [[nodiscard]] T support_radius(const KernelSupportQuery<T>&) const noexcept { return T(0); }

@@ -4,6 +4,7 @@
 
 #include "segpath/concepts/kernel.hpp"
 #include "segpath/core/frame.hpp"
+#include "segpath/core/in_place_optional.hpp"
 
 #include <cmath>
 #include <limits>
@@ -61,7 +62,7 @@ class DiskKernel {
       if (!(shrink < T(1))) return std::nullopt;
       x.position = y.position + offset * (T(1) - shrink);
     }
-    return KernelSample<T>{x, inv_area_};
+    return in_place_optional<KernelSample<T>>(x, inv_area_);
   }
 
   [[nodiscard]] T pdf(const KernelQuery<T>& q) const noexcept { return eval(q); }

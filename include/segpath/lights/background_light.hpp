@@ -8,6 +8,7 @@
 #include <string>
 
 #include "segpath/concepts/emitter.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 #include "segpath/lights/directional_light.hpp"
 
@@ -71,8 +72,8 @@ class BackgroundLight {
   [[nodiscard]] std::optional<EmissionSample<S>> sample_emission(
       const EmissionSampleQuery<Scalar>& q) const noexcept {
     const Vec3<Scalar> w = square_to_uniform_sphere(q.u_position);
-    return EmissionSample<S>{point(w), disk_.sample(w, q.u_direction), radiance_,
-                             square_to_uniform_sphere_pdf<Scalar>(), disk_.pdf()};
+    return in_place_optional<EmissionSample<S>>(point(w), disk_.sample(w, q.u_direction), radiance_,
+                                                square_to_uniform_sphere_pdf<Scalar>(), disk_.pdf());
   }
 
   [[nodiscard]] EmissionPdf<Scalar> pdf_emission(const EmissionPdfQuery<Scalar>& q) const noexcept {
@@ -86,15 +87,15 @@ class BackgroundLight {
       const EmitterTowardsQuery<Scalar>& q) const noexcept {
     if (q.receiver.kind == PointKind::direction) return std::nullopt;
     if (q.receiver.kind == PointKind::point) {
-      return EmitterTowardsSample<S>{point(square_to_uniform_sphere(q.u)), radiance_,
-                                     square_to_uniform_sphere_pdf<Scalar>()};
+      return in_place_optional<EmitterTowardsSample<S>>(point(square_to_uniform_sphere(q.u)), radiance_,
+                                                        square_to_uniform_sphere_pdf<Scalar>());
     }
     const Vec3<Scalar> w =
         Frame<Scalar>::from_normal(q.receiver.normal).to_world(square_to_cosine_hemisphere(q.u));
     // The density from the world direction, exactly as pdf_towards computes it.
     const Scalar pdf = glm::dot(q.receiver.normal, w) * inv_pi<Scalar>;
     if (!(pdf > Scalar(0))) return std::nullopt;
-    return EmitterTowardsSample<S>{point(w), radiance_, pdf};
+    return in_place_optional<EmitterTowardsSample<S>>(point(w), radiance_, pdf);
   }
 
   /// The solid-angle density of sample_towards for this receiver at a `direction` endpoint.

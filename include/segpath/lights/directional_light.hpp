@@ -9,6 +9,7 @@
 #include <string>
 
 #include "segpath/concepts/emitter.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 
 namespace segpath {
@@ -133,8 +134,8 @@ class DirectionalLight {
   /// y and a ray origin on the emission disk; see the class comment for the field meanings.
   [[nodiscard]] std::optional<EmissionSample<S>> sample_emission(
       const EmissionSampleQuery<Scalar>& q) const noexcept {
-    return EmissionSample<S>{point(), disk_.sample(-direction_, q.u_direction), irradiance_,
-                             Scalar(1), disk_.pdf(), true};
+    return in_place_optional<EmissionSample<S>>(point(), disk_.sample(-direction_, q.u_direction), irradiance_,
+                                                Scalar(1), disk_.pdf(), true);
   }
 
   [[nodiscard]] EmissionPdf<Scalar> pdf_emission(const EmissionPdfQuery<Scalar>& q) const noexcept {
@@ -147,7 +148,7 @@ class DirectionalLight {
   [[nodiscard]] std::optional<EmitterTowardsSample<S>> sample_towards(
       const EmitterTowardsQuery<Scalar>& q) const noexcept {
     if (q.receiver.kind == PointKind::direction) return std::nullopt;
-    return EmitterTowardsSample<S>{point(), irradiance_, Scalar(1), true};
+    return in_place_optional<EmitterTowardsSample<S>>(point(), irradiance_, Scalar(1), true);
   }
 
   /// 1 at y (for a finite receiver), 0 elsewhere.

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "segpath/concepts/emitter.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 
 namespace segpath {
@@ -53,8 +54,8 @@ class PointLight {
   [[nodiscard]] std::optional<EmissionSample<S>> sample_emission(
       const EmissionSampleQuery<Scalar>& q) const noexcept {
     const Vec3<Scalar> direction = square_to_uniform_sphere(q.u_direction);
-    return EmissionSample<S>{point(), direction, intensity_, Scalar(1),
-                             square_to_uniform_sphere_pdf<Scalar>(), true};
+    return in_place_optional<EmissionSample<S>>(point(), direction, intensity_, Scalar(1),
+                                                square_to_uniform_sphere_pdf<Scalar>(), true);
   }
 
   [[nodiscard]] EmissionPdf<Scalar> pdf_emission(const EmissionPdfQuery<Scalar>& q) const noexcept {
@@ -68,7 +69,7 @@ class PointLight {
     const Vec3<Scalar> delta = q.receiver.position - position_;
     if (q.receiver.kind != PointKind::direction && !(glm::dot(delta, delta) > Scalar(0)))
       return std::nullopt;
-    return EmitterTowardsSample<S>{point(), intensity_, Scalar(1), true};
+    return in_place_optional<EmitterTowardsSample<S>>(point(), intensity_, Scalar(1), true);
   }
 
   /// 1 for this light's own point, 0 for any other endpoint.

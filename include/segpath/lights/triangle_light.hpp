@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "segpath/concepts/emitter.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 
 namespace segpath {
@@ -107,7 +108,7 @@ class TriangleLights {
     // The density from the world direction, exactly as pdf_emission computes it.
     const Scalar pdf_direction = glm::dot(w, y.normal) * inv_pi<Scalar>;
     if (!(pdf_direction > Scalar(0))) return std::nullopt;
-    return EmissionSample<S>{y, w, e.radiance, inv_total_area_, pdf_direction};
+    return in_place_optional<EmissionSample<S>>(y, w, e.radiance, inv_total_area_, pdf_direction);
   }
 
   /// {1/A, max(cos, 0)/pi} at this light's points, {0, 0} elsewhere.
@@ -134,7 +135,7 @@ class TriangleLights {
       to_receiver /= std::sqrt(d2);
     }
     const S le = glm::dot(to_receiver, y.normal) > Scalar(0) ? e.radiance : S(Scalar(0));
-    return EmitterTowardsSample<S>{y, le, inv_total_area_};
+    return in_place_optional<EmitterTowardsSample<S>>(y, le, inv_total_area_);
   }
 
   /// 1/A at this light's points, 0 elsewhere (the density does not depend on the receiver).

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "segpath/concepts/sensor.hpp"
+#include "segpath/core/in_place_optional.hpp"
 
 namespace segpath {
 
@@ -100,6 +101,7 @@ class PinholeCamera {
     forward_ = glm::normalize(forward_);
     right_ = glm::normalize(right_);
     up_ = glm::normalize(up_);
+    point_ = SurfacePoint<T>::at_point(position_, forward_);
   }
 
   [[nodiscard]] std::uint32_t pixel_count() const noexcept { return width_ * height_; }
@@ -115,9 +117,7 @@ class PinholeCamera {
   /// 1 / A_pixel: the inverse image-plane area of one pixel at distance 1.
   [[nodiscard]] T inverse_pixel_area() const noexcept { return inv_pixel_area_; }
   /// The sensor end x_1 (PointKind::point at the pinhole, reference axis F).
-  [[nodiscard]] SurfacePoint<T> point() const noexcept {
-    return SurfacePoint<T>::at_point(position_, forward_);
-  }
+  [[nodiscard]] const SurfacePoint<T>& point() const noexcept { return point_; }
 
   /// The unit direction through raster point (r_x, r_y) (not checked against the image).
   [[nodiscard]] Vec3<T> direction_through(const Vec2<T>& raster) const noexcept {
@@ -162,7 +162,7 @@ class PinholeCamera {
     const Vec3<T> w = direction_through(raster);
     const T density = direction_density(w);
     if (!(density > T(0))) return std::nullopt;
-    return SensorSample<T>{point(), w, density, T(1), density};
+    return in_place_optional<SensorSample<T>>(point(), w, density, T(1), density);
   }
 
   /// The pixel a ray from the pinhole falls in and W_rho = direction_density(w); nullopt for
@@ -177,7 +177,7 @@ class PinholeCamera {
     if (!(w > T(0))) return std::nullopt;
     const auto x = std::min(static_cast<std::uint32_t>(r->x), width_ - 1);
     const auto y = std::min(static_cast<std::uint32_t>(r->y), height_ - 1);
-    return SensorResponse<T>{y * width_ + x, w};
+    return in_place_optional<SensorResponse<T>>(y * width_ + x, w);
   }
 
   /// {1, direction_density(w)} for a ray from the pinhole into the image, {0, 0} otherwise.
@@ -193,6 +193,8 @@ class PinholeCamera {
 
   Vec3<T> position_;
   Vec3<T> forward_, right_, up_;
+  /// point()'s value, kept whole: a sample copies it from here, not from a point just built on the stack.
+  SurfacePoint<T> point_;
   std::uint32_t width_, height_;
   T tan_x_ = 1, tan_y_ = 1;
   T inv_pixel_area_ = 1;

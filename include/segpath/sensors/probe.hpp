@@ -4,6 +4,7 @@
 #pragma once
 
 #include "segpath/concepts/sensor.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/ray.hpp"
 
 #include <cmath>
@@ -36,13 +37,13 @@ class ProbeSensor {
   [[nodiscard]] std::optional<SensorSample<T>> sample_ray(const SensorSampleQuery<T>& q) const noexcept {
     if (q.pixel >= rays_.size()) return std::nullopt;
     const Ray<T>& r = rays_[q.pixel];
-    return SensorSample<T>{SurfacePoint<T>::at_point(r.origin, r.direction), r.direction, T(1), T(1), T(1)};
+    return in_place_optional<SensorSample<T>>(SurfacePoint<T>::at_point(r.origin, r.direction), r.direction, T(1), T(1), T(1));
   }
 
   [[nodiscard]] std::optional<SensorResponse<T>> importance(const SensorQuery<T>& q) const noexcept {
     const auto pixel = find(q);
     if (!pixel) return std::nullopt;
-    return SensorResponse<T>{*pixel, T(1)};
+    return in_place_optional<SensorResponse<T>>(*pixel, T(1));
   }
 
   [[nodiscard]] SensorPdf<T> pdf(const SensorQuery<T>& q) const noexcept {

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 #include "segpath/lights/point_light.hpp"
 #include "segpath/materials/lambertian.hpp"
@@ -207,7 +208,7 @@ class PointLitPlane {
   [[nodiscard]] T area() const noexcept { return square_.area(); }
   [[nodiscard]] std::optional<AreaSample<T>> sample_area(
       const AreaSampleQuery<T>& q) const noexcept {
-    return AreaSample<T>{square_.sample(q.u), T(1) / area()};
+    return in_place_optional<AreaSample<T>>(square_.sample(q.u), T(1) / area());
   }
   /// The crossing of the square from either side; its normal is always +z (the front).
   [[nodiscard]] std::optional<Hit<T>> intersect(const IntersectQuery<T>& q) const noexcept {
@@ -362,8 +363,8 @@ class DiskLitPlane {
       const Vec3<T> local = square_to_cosine_hemisphere(q.u_direction);
       const T pdf_dir = square_to_cosine_hemisphere_pdf(local);
       if (!(pdf_dir > T(0))) return std::nullopt;
-      return EmissionSample<T>{y, y.shading_frame().to_world(local), s_->p_.radiance,
-                               T(1) / s_->disk_area(), pdf_dir};
+      return in_place_optional<EmissionSample<T>>(y, y.shading_frame().to_world(local), s_->p_.radiance,
+                                                  T(1) / s_->disk_area(), pdf_dir);
     }
 
     [[nodiscard]] EmissionPdf<T> pdf_emission(const EmissionPdfQuery<T>& q) const noexcept {
@@ -378,8 +379,8 @@ class DiskLitPlane {
       const Vec3<T> to_receiver = q.receiver.position - y.position;
       const T d2 = glm::dot(to_receiver, to_receiver);
       if (!(d2 > T(0))) return std::nullopt;
-      return EmitterTowardsSample<T>{y, radiance(EmissionQuery<T>{y, to_receiver / std::sqrt(d2)}),
-                                     T(1) / s_->disk_area()};
+      return in_place_optional<EmitterTowardsSample<T>>(y, radiance(EmissionQuery<T>{y, to_receiver / std::sqrt(d2)}),
+                                                        T(1) / s_->disk_area());
     }
 
     [[nodiscard]] T pdf_towards(const EmitterPdfTowardsQuery<T>& q) const noexcept {

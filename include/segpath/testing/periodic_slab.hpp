@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 #include "segpath/materials/lambertian.hpp"
 #include "segpath/sensors/probe.hpp"
@@ -113,7 +114,7 @@ class PeriodicSlab {
   /// the cell [0, P)^2 of that plane.
   [[nodiscard]] std::optional<AreaSample<T>> sample_area(
       const AreaSampleQuery<T>& q) const noexcept {
-    return AreaSample<T>{cell_point(q.u), T(1) / area()};
+    return in_place_optional<AreaSample<T>>(cell_point(q.u), T(1) / area());
   }
 
   /// The nearest crossing with t > 0 of either plane, so a ray leaving a plane point hits the
@@ -191,8 +192,8 @@ class PeriodicSlab {
       const T pdf_dir = square_to_cosine_hemisphere_pdf(local);
       if (!(pdf_dir > T(0))) return std::nullopt;
       const T le = y.primitive_id == 0 ? s_->p_.emission_a : s_->p_.emission_b;
-      return EmissionSample<T>{y, y.shading_frame().to_world(local), le, T(1) / s_->area(),
-                               pdf_dir};
+      return in_place_optional<EmissionSample<T>>(y, y.shading_frame().to_world(local), le, T(1) / s_->area(),
+                                                  pdf_dir);
     }
 
     [[nodiscard]] EmissionPdf<T> pdf_emission(const EmissionPdfQuery<T>& q) const noexcept {
@@ -224,7 +225,7 @@ class PeriodicSlab {
       if (!hit) return std::nullopt;
       const T pdf = pdf_solid_angle * std::abs(d.z) / (hit->distance * hit->distance);
       if (!(pdf > T(0)) || !std::isfinite(pdf)) return std::nullopt;
-      return EmitterTowardsSample<T>{hit->point, radiance(EmissionQuery<T>{hit->point, -d}), pdf};
+      return in_place_optional<EmitterTowardsSample<T>>(hit->point, radiance(EmissionQuery<T>{hit->point, -d}), pdf);
     }
 
     [[nodiscard]] T pdf_towards(const EmitterPdfTowardsQuery<T>& q) const noexcept {

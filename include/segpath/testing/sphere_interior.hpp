@@ -4,6 +4,7 @@
 #pragma once
 
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 #include "segpath/materials/lambertian.hpp"
 #include "segpath/sensors/pinhole_camera.hpp"
@@ -66,7 +67,7 @@ class SphereInterior {
 
   [[nodiscard]] std::optional<AreaSample<T>> sample_area(const AreaSampleQuery<T>& q) const noexcept {
     const Vec3<T> u = square_to_uniform_sphere(q.u);
-    return AreaSample<T>{point_at(u), T(1) / area()};
+    return in_place_optional<AreaSample<T>>(point_at(u), T(1) / area());
   }
 
   /// Rays start inside or on the sphere; the hit is the far root of |o + t d - c| = R, so a
@@ -113,7 +114,7 @@ class SphereInterior {
       const Vec3<T> local = square_to_cosine_hemisphere(q.u_direction);
       const T pdf_dir = square_to_cosine_hemisphere_pdf(local);
       if (!(pdf_dir > T(0))) return std::nullopt;
-      return EmissionSample<T>{y, y.shading_frame().to_world(local), s_->emission_at(y.position), T(1) / s_->area(), pdf_dir};
+      return in_place_optional<EmissionSample<T>>(y, y.shading_frame().to_world(local), s_->emission_at(y.position), T(1) / s_->area(), pdf_dir);
     }
     [[nodiscard]] EmissionPdf<T> pdf_emission(const EmissionPdfQuery<T>& q) const noexcept {
       const T cosine = glm::dot(q.direction, q.point.normal);
@@ -125,7 +126,7 @@ class SphereInterior {
       const T d2 = glm::dot(to_receiver, to_receiver);
       if (!(d2 > T(0))) return std::nullopt;
       const T le = radiance(EmissionQuery<T>{y, to_receiver / std::sqrt(d2)});
-      return EmitterTowardsSample<T>{y, le, T(1) / s_->area()};
+      return in_place_optional<EmitterTowardsSample<T>>(y, le, T(1) / s_->area());
     }
     [[nodiscard]] T pdf_towards(const EmitterPdfTowardsQuery<T>&) const noexcept { return T(1) / s_->area(); }
 
