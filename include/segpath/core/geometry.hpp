@@ -19,7 +19,7 @@ template <Real T>
 /// than `surface` drop their cosine; a `direction` endpoint drops 1/d^2. Zero-length
 /// segments between surface points have no finite G and return 0 (a dropped sample).
 template <Real T>
-[[nodiscard]] inline T geometry_term(const Segment<T>& s) noexcept {
+[[nodiscard]] SEGPATH_FORCE_INLINE T geometry_term(const Segment<T>& s) noexcept {
   const bool at_infinity = s.x.kind == PointKind::direction || s.y.kind == PointKind::direction;
   if (at_infinity) {
     const Vec3<T> d = s.direction();
@@ -45,8 +45,8 @@ template <Real T>
 /// Converts a solid-angle density at `from` towards `to` into an area density at `to`:
 /// p_A(to) = p_w |n_to . w| / |from - to|^2 (the factor in (N27), (N28), (N31)).
 template <Real T>
-[[nodiscard]] inline T solid_angle_to_area(T pdf_solid_angle, const SurfacePoint<T>& from,
-                                           const SurfacePoint<T>& to) noexcept {
+[[nodiscard]] SEGPATH_FORCE_INLINE T solid_angle_to_area(T pdf_solid_angle, const SurfacePoint<T>& from,
+                                                         const SurfacePoint<T>& to) noexcept {
   if (to.kind == PointKind::direction || from.kind == PointKind::direction) return pdf_solid_angle;
   const Vec3<T> delta = to.position - from.position;
   const T d2 = glm::dot(delta, delta);
@@ -65,8 +65,8 @@ template <Real T>
 
 /// The inverse of solid_angle_to_area; returns 0 where the conversion is singular.
 template <Real T>
-[[nodiscard]] inline T area_to_solid_angle(T pdf_area, const SurfacePoint<T>& from,
-                                           const SurfacePoint<T>& to) noexcept {
+[[nodiscard]] SEGPATH_FORCE_INLINE T area_to_solid_angle(T pdf_area, const SurfacePoint<T>& from,
+                                                         const SurfacePoint<T>& to) noexcept {
   if (to.kind == PointKind::direction || from.kind == PointKind::direction) return pdf_area;
   const Vec3<T> delta = to.position - from.position;
   const T d2 = glm::dot(delta, delta);

@@ -16,7 +16,7 @@ struct Segment {
 
   /// Unit direction s-hat from x towards y. For a `direction` endpoint y the stored
   /// `y.position` is that direction.
-  [[nodiscard]] Vec3<T> direction() const noexcept {
+  [[nodiscard]] SEGPATH_FORCE_INLINE Vec3<T> direction() const noexcept {
     if (y.kind == PointKind::direction) return y.position;
     if (x.kind == PointKind::direction) return -x.position;
     return glm::normalize(y.position - x.position);
