@@ -4,8 +4,9 @@
 // Why not `return X{fields...};`: GCC 12 builds that temporary with 4- and 8-byte stores and
 // copies it into the optional with 16-byte loads, which wait until the stores retire (store
 // forwarding fails). In PT's next-event draw, the pinhole's rays and the generic estimator's
-// BSDF samples this cost 2-10 % (docs/figures.md, session 33). `optional::emplace` on an optional
-// already constructed is no better: GCC 12 zero-fills the object first (session 32).
+// BSDF samples, 2-10 % of a function's profile sat on such loads (docs/figures.md, session 33).
+// `optional::emplace` on an optional already constructed is no better: GCC 12 zero-fills the
+// object first (session 32).
 #pragma once
 
 #include "segpath/config.hpp"
