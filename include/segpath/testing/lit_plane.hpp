@@ -45,7 +45,7 @@ struct LitSquare {
     if (!(t > T(0)) || !(t < t_max)) return std::nullopt;
     const Vec3<T> x = r.at(t);
     if (!contains(x.x, x.y)) return std::nullopt;
-    return Hit<T>{point(x.x, x.y), t};
+    return in_place_optional<Hit<T>>(point(x.x, x.y), t);
   }
 
   static std::vector<Ray<T>> probe_rays(const std::vector<Vec2<T>>& targets, T half_size,

@@ -132,7 +132,7 @@ class PeriodicSlab {
     const T t = s == SlabSide::a ? t_a : t_b;
     const Vec3<T> x = o + d * t;
     if (!std::isfinite(t) || !std::isfinite(x.x) || !std::isfinite(x.y)) return std::nullopt;
-    return Hit<T>{point_on(s, x.x, x.y), t};
+    return in_place_optional<Hit<T>>(point_on(s, x.x, x.y), t);
   }
 
   /// True for ends on different planes or with one strictly between the planes; false for

@@ -73,16 +73,14 @@ class SphereInterior {
   /// Rays start inside or on the sphere; the hit is the far root of |o + t d - c| = R, so a
   /// ray leaving a surface point never re-hits it.
   [[nodiscard]] std::optional<Hit<T>> intersect(const IntersectQuery<T>& q) const noexcept {
-    std::optional<Hit<T>> hit;
     const Vec3<T> oc = q.ray.origin - p_.center;
     const T b = glm::dot(q.ray.direction, oc);
     const T c = glm::dot(oc, oc) - p_.radius * p_.radius;
     const T disc = b * b - c;
-    if (!(disc >= T(0))) return hit;
+    if (!(disc >= T(0))) return std::nullopt;
     const T t = -b + std::sqrt(disc);
-    if (!(t > T(0)) || !(t < q.t_max)) return hit;
-    hit.emplace(Hit<T>{point_at(glm::normalize(oc + q.ray.direction * t)), t});
-    return hit;
+    if (!(t > T(0)) || !(t < q.t_max)) return std::nullopt;
+    return in_place_optional<Hit<T>>(point_at(glm::normalize(oc + q.ray.direction * t)), t);
   }
 
   /// The sphere is convex: every two points inside or on it see each other from inside.
