@@ -3,7 +3,9 @@
 #include <segpath/testing/two_threads.hpp>
 
 #include <algorithm>
+#include <cstdint>
 #include <map>
+#include <stdexcept>
 #include <thread>
 #include <vector>
 
@@ -254,4 +256,58 @@ TEST_CASE("the radix order is checked: an order without the end tie-break is rej
   for (std::size_t r = 0; r < wrong.size(); ++r)
     mismatches += !(clustering.refs()[r].segment == wrong[r].segment && clustering.refs()[r].end == wrong[r].end);
   CHECK(mismatches > 0);
+}
+
+TEMPLATE_TEST_CASE("renumbering renames the segments and keeps every cluster and slot", "[propagation]", float, double) {
+  using T = TestType;
+  const auto segments = random_pool<T>(4000, T(2), T(1.5), 0.1, 0.3, 17);
+  const auto grid = VoxelGrid<T>::jittered(T(0.4), 2, 3);
+  Clustering<T> before, after;
+  before.keep_refs(true);
+  after.keep_refs(true);
+  before.build(grid, segments);
+  after.build(grid, segments);
+  // A random permutation (Fisher-Yates).
+  const auto n = std::uint32_t(segments.size());
+  std::vector<std::uint32_t> new_of_old(n);
+  for (std::uint32_t s = 0; s < n; ++s) new_of_old[s] = s;
+  Pcg32 rng(5, 2);
+  for (std::uint32_t s = n - 1; s > 0; --s) std::swap(new_of_old[s], new_of_old[std::min(s, std::uint32_t(rng.uniform<double>() * (s + 1)))]);
+  after.renumber(new_of_old, testing::TwoThreadFor{});
+
+  REQUIRE(after.clusters().size() == before.clusters().size());
+  std::size_t cluster_mismatches = 0;
+  for (std::size_t c = 0; c < before.clusters().size(); ++c) {
+    const Cluster<T>&p = before.clusters()[c], &q = after.clusters()[c];
+    cluster_mismatches += !(p.begin == q.begin && p.middle == q.middle && p.end == q.end && p.slot == q.slot && p.kernel == q.kernel);
+  }
+  CHECK(cluster_mismatches == 0);
+  // Slot j of either end names the renamed segment of the same slot before.
+  std::size_t slot_mismatches = 0;
+  for (std::size_t j = 0; j < before.starting_segments().size(); ++j)
+    slot_mismatches += after.starting_segments()[j] != new_of_old[before.starting_segments()[j]];
+  for (std::size_t i = 0; i < before.ending_segments().size(); ++i)
+    slot_mismatches += after.ending_segments()[i] != new_of_old[before.ending_segments()[i]];
+  CHECK(slot_mismatches == 0);
+  std::size_t ref_mismatches = 0;
+  for (std::size_t r = 0; r < before.refs().size(); ++r)
+    ref_mismatches += !(after.refs()[r].key == before.refs()[r].key && after.refs()[r].end == before.refs()[r].end &&
+                        after.refs()[r].segment == new_of_old[before.refs()[r].segment]);
+  CHECK(ref_mismatches == 0);
+  // Each segment's lookups move with it.
+  std::size_t segment_mismatches = 0, unclustered_y = 0;
+  for (std::uint32_t s = 0; s < n; ++s) {
+    const std::uint32_t t = new_of_old[s];
+    segment_mismatches += !(after.cluster_of_x(t) == before.cluster_of_x(s) && after.cluster_of_y(t) == before.cluster_of_y(s) &&
+                            after.ending_slot_of(t) == before.ending_slot_of(s));
+    unclustered_y += before.cluster_of_y(s) == no_cluster;
+  }
+  CHECK(segment_mismatches == 0);
+  CHECK(unclustered_y > 100);  // the pool has ends in no cluster (10 % non-surface)
+  // Renaming back restores the clustering exactly.
+  std::vector<std::uint32_t> old_of_new(n);
+  for (std::uint32_t s = 0; s < n; ++s) old_of_new[new_of_old[s]] = s;
+  after.renumber(old_of_new);
+  check_same(before, after, n);
+  CHECK_THROWS_AS(after.renumber(std::vector<std::uint32_t>(n - 1)), std::invalid_argument);
 }

@@ -189,6 +189,28 @@ class Clustering {
   }
   [[nodiscard]] T kernel(std::size_t c) const noexcept { return clusters_[c].kernel; }
 
+  /// Renames the segments: segment s becomes new_of_old[s] (a permutation of [0, #segments)).
+  /// Every cluster keeps its slots in the same order, so per-slot data is unchanged; only the
+  /// segment ids they name (and the per-segment lookups) follow the new numbering.
+  template <ParallelFor P = SerialFor>
+  void renumber(std::span<const std::uint32_t> new_of_old, const P& parallel_for = {}) {
+    const std::size_t n = cluster_of_x_.size();
+    if (new_of_old.size() != n)
+      throw std::invalid_argument("segpath::Clustering::renumber: " + std::to_string(new_of_old.size()) +
+                                  " new ids for " + std::to_string(n) + " segments");
+    auto scatter = [&](std::vector<std::uint32_t>& v) {
+      std::vector<std::uint32_t> out(n);
+      for_blocks(n, parallel_for, [&](std::size_t s) { out[new_of_old[s]] = v[s]; });
+      v.swap(out);
+    };
+    scatter(cluster_of_x_);
+    scatter(cluster_of_y_);
+    scatter(ending_slot_of_);
+    for_blocks(starting_segment_.size(), parallel_for, [&](std::size_t j) { starting_segment_[j] = new_of_old[starting_segment_[j]]; });
+    for_blocks(ending_segment_.size(), parallel_for, [&](std::size_t i) { ending_segment_[i] = new_of_old[ending_segment_[i]]; });
+    for (EndpointRef& r : refs_) r.segment = new_of_old[r.segment];
+  }
+
   [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
     if (cluster_of_x_.empty()) return 0;
     return (refs_.capacity() * sizeof(EndpointRef) + clusters_.capacity() * sizeof(Cluster<T>) +
