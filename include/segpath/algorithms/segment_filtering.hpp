@@ -20,6 +20,7 @@
 #include "segpath/algorithms/filtering/paths.hpp"
 #include "segpath/algorithms/filtering/pool.hpp"
 #include "segpath/algorithms/filtering/propagation.hpp"
+#include "segpath/algorithms/filtering/slot_order.hpp"
 #include "segpath/algorithms/filtering/support.hpp"
 #include "segpath/algorithms/filtering/technique_set.hpp"
 #include "segpath/algorithms/filtering/techniques.hpp"
@@ -158,7 +159,7 @@ class SegmentFiltering {
     const bool conditioned = path_conditioned(options_);
     if (options_.support == FilteringSupport::voxel) {
       Clustering<T> clustering;
-      filtering::cluster(ctx, filtering::grid(options_, cell, ctx.stream), clustering, parallel_for);
+      filtering::cluster_in_slot_order(ctx, filtering::grid(options_, cell, ctx.stream), clustering, parallel_for);
       stats.clusters = clustering.clusters().size();
       lap(stats.support_seconds);
       filtering::compute_densities(ctx, clustering, parallel_for, conditioned ? &side : nullptr);
