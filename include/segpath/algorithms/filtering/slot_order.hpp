@@ -3,7 +3,9 @@
 // clusters and reads the pool by slot (densities, factorisation, transfer, propagation); with the
 // segments numbered in slot order those reads run through memory in order instead of at random.
 // A renaming only: every stage computes the same numbers in the same order, and since each pixel
-// receives one sensor segment per pass, the image is the same bit for bit (docs/figures.md).
+// receives one sensor segment per pass, the image is the same bit for bit. SegmentFiltering
+// renumbers where the propagation is path-conditioned (BDPF's default), where it pays most
+// (docs/figures.md, session 34).
 #pragma once
 
 #include "segpath/algorithms/filtering/context.hpp"
