@@ -310,4 +310,10 @@ TEMPLATE_TEST_CASE("renumbering renames the segments and keeps every cluster and
   after.renumber(old_of_new);
   check_same(before, after, n);
   CHECK_THROWS_AS(after.renumber(std::vector<std::uint32_t>(n - 1)), std::invalid_argument);
+  std::vector<std::uint32_t> twice = old_of_new, beyond = old_of_new;
+  twice[7] = twice[8];
+  beyond[7] = n;
+  CHECK_THROWS_AS(after.renumber(twice), std::invalid_argument);
+  CHECK_THROWS_AS(after.renumber(beyond), std::invalid_argument);
+  check_same(before, after, n);  // a rejected renaming changes nothing
 }

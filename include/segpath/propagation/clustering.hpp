@@ -189,15 +189,23 @@ class Clustering {
   }
   [[nodiscard]] T kernel(std::size_t c) const noexcept { return clusters_[c].kernel; }
 
-  /// Renames the segments: segment s becomes new_of_old[s] (a permutation of [0, #segments)).
-  /// Every cluster keeps its slots in the same order, so per-slot data is unchanged; only the
-  /// segment ids they name (and the per-segment lookups) follow the new numbering.
+  /// Renames the segments: segment s becomes new_of_old[s] (a permutation of [0, #segments),
+  /// else std::invalid_argument). Every cluster keeps its slots in the same order, so per-slot
+  /// data is unchanged; only the segment ids they name (and the per-segment lookups) follow the
+  /// new numbering. Kept refs (keep_refs) keep their order, no longer sorted by segment.
   template <ParallelFor P = SerialFor>
   void renumber(std::span<const std::uint32_t> new_of_old, const P& parallel_for = {}) {
     const std::size_t n = cluster_of_x_.size();
     if (new_of_old.size() != n)
       throw std::invalid_argument("segpath::Clustering::renumber: " + std::to_string(new_of_old.size()) +
                                   " new ids for " + std::to_string(n) + " segments");
+    std::vector<bool> taken(n, false);
+    for (const std::uint32_t t : new_of_old) {
+      if (t >= n || taken[t])
+        throw std::invalid_argument("segpath::Clustering::renumber: not a permutation of the " + std::to_string(n) +
+                                    " segments (new id " + std::to_string(t) + (t >= n ? " out of range)" : " twice)"));
+      taken[t] = true;
+    }
     auto scatter = [&](std::vector<std::uint32_t>& v) {
       std::vector<std::uint32_t> out(n);
       for_blocks(n, parallel_for, [&](std::size_t s) { out[new_of_old[s]] = v[s]; });
