@@ -53,6 +53,18 @@ std::vector<EndpointRef> reference_refs(const VoxelGrid<T>& grid, const std::vec
   return refs;
 }
 
+/// Clusters of a and b that differ in their ref ranges, first slot or kernel (bit for bit).
+template <Real T>
+std::size_t cluster_mismatches(const Clustering<T>& a, const Clustering<T>& b) {
+  REQUIRE(a.clusters().size() == b.clusters().size());
+  std::size_t mismatches = 0;
+  for (std::size_t c = 0; c < a.clusters().size(); ++c) {
+    const Cluster<T>&p = a.clusters()[c], &q = b.clusters()[c];
+    mismatches += !(p.begin == q.begin && p.middle == q.middle && p.end == q.end && p.slot == q.slot && p.kernel == q.kernel);
+  }
+  return mismatches;
+}
+
 /// Everything a clustering exposes, compared exactly (kernels bit for bit).
 template <Real T>
 void check_same(const Clustering<T>& a, const Clustering<T>& b, std::size_t segments) {
@@ -63,13 +75,7 @@ void check_same(const Clustering<T>& a, const Clustering<T>& b, std::size_t segm
     ref_mismatches += !(p.key == q.key && p.segment == q.segment && p.end == q.end);
   }
   CHECK(ref_mismatches == 0);
-  REQUIRE(a.clusters().size() == b.clusters().size());
-  std::size_t cluster_mismatches = 0;
-  for (std::size_t c = 0; c < a.clusters().size(); ++c) {
-    const Cluster<T>&p = a.clusters()[c], &q = b.clusters()[c];
-    cluster_mismatches += !(p.begin == q.begin && p.middle == q.middle && p.end == q.end && p.slot == q.slot && p.kernel == q.kernel);
-  }
-  CHECK(cluster_mismatches == 0);
+  CHECK(cluster_mismatches(a, b) == 0);
   CHECK(std::ranges::equal(a.starting_segments(), b.starting_segments()));
   CHECK(std::ranges::equal(a.ending_segments(), b.ending_segments()));
   std::size_t segment_mismatches = 0;
@@ -275,13 +281,7 @@ TEMPLATE_TEST_CASE("renumbering renames the segments and keeps every cluster and
   for (std::uint32_t s = n - 1; s > 0; --s) std::swap(new_of_old[s], new_of_old[std::min(s, std::uint32_t(rng.uniform<double>() * (s + 1)))]);
   after.renumber(new_of_old, testing::TwoThreadFor{});
 
-  REQUIRE(after.clusters().size() == before.clusters().size());
-  std::size_t cluster_mismatches = 0;
-  for (std::size_t c = 0; c < before.clusters().size(); ++c) {
-    const Cluster<T>&p = before.clusters()[c], &q = after.clusters()[c];
-    cluster_mismatches += !(p.begin == q.begin && p.middle == q.middle && p.end == q.end && p.slot == q.slot && p.kernel == q.kernel);
-  }
-  CHECK(cluster_mismatches == 0);
+  CHECK(cluster_mismatches(before, after) == 0);
   // Slot j of either end names the renamed segment of the same slot before.
   std::size_t slot_mismatches = 0;
   for (std::size_t j = 0; j < before.starting_segments().size(); ++j)
