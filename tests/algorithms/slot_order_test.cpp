@@ -1,16 +1,19 @@
 // The pool renumbered in the clusters' ending-slot order (algorithms/filtering/slot_order.hpp)
 // is a renaming only: every pool array and the clustering follow the new numbering, ending slot
 // i holds segment i, and the densities and the propagation (the paper's weighting and the
-// path-conditioned one) give every segment the numbers it had before, bit for bit.
+// path-conditioned one) give every segment the numbers it had before, bit for bit; and the
+// renderer's iteration, which renumbers, gives the image of the stages run without it.
 #include <segpath/algorithms/segment_filtering.hpp>
 #include <segpath/testing/sphere_interior.hpp>
 #include <segpath/testing/submerged_plane.hpp>
 #include <segpath/testing/two_threads.hpp>
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "custom_technique/cosine_surface_sampler.hpp"
 #include "support/catch.hpp"
 
 using namespace segpath;
@@ -22,10 +25,12 @@ bool same_point(const SurfacePoint<double>& a, const SurfacePoint<double>& b) {
          a.primitive_id == b.primitive_id && a.material_id == b.material_id && a.kind == b.kind;
 }
 
-/// Segments of the pool `before` that differ from their renamed copy in `after`, over every
-/// array of the pool (parents compared through the renaming).
-template <class Pool>
-std::size_t pool_mismatches(const Pool& before, const Pool& after, const std::vector<std::uint32_t>& new_of_old) {
+/// Segments of the context `before` that differ from their renamed copy in `after`, over every
+/// array of the pool and the user techniques' densities (parents compared through the renaming).
+template <class Context>
+std::size_t pool_mismatches(const Context& before_ctx, const Context& after_ctx, const std::vector<std::uint32_t>& new_of_old) {
+  const auto &before = before_ctx.pool, &after = after_ctx.pool;
+  REQUIRE(before_ctx.extra_density.size() == after_ctx.extra_density.size());
   std::size_t mismatches = 0;
   for (std::size_t s = 0; s < before.size(); ++s) {
     const std::uint32_t t = new_of_old[s];
@@ -35,29 +40,32 @@ std::size_t pool_mismatches(const Pool& before, const Pool& after, const std::ve
                     before.chain[s] == after.chain[t] && before.emitted[s] == after.emitted[t] &&
                     before.geometry[s] == after.geometry[t] && before.density[s] == after.density[t] &&
                     before.sensor_weight[s] == after.sensor_weight[t] && before.pixel[s] == after.pixel[t] &&
-                    parent == after.parent[t] && before.flags[s] == after.flags[t] && before.pieces[s] == after.pieces[t]);
+                    parent == after.parent[t] && before.flags[s] == after.flags[t] && before.pieces[s] == after.pieces[t] &&
+                    (before_ctx.extra_density.empty() || before_ctx.extra_density[s] == after_ctx.extra_density[t]));
   }
   return mismatches;
 }
 
 /// What check_renaming saw: segments, those whose y end is in no cluster, those with a value.
 struct Seen {
-  std::size_t segments = 0, unclustered = 0, valued = 0;
+  std::size_t segments = 0, unclustered = 0, valued = 0, extra_densities = 0;
 };
 
 /// Draws one pool of `scene`, clusters it, renames a copy into slot order and runs the later
 /// stages on both.
-template <class Scn>
-Seen check_renaming(const Scn& scene, const FilteringOptions<double>& o, const std::string& what) {
+template <class Scn, class... Extra>
+Seen check_renaming(const Scn& scene, const FilteringOptions<double>& o, const std::string& what,
+                    const FilteringTechnique<Extra>&... extra) {
   INFO(what);
-  const SegmentFiltering<Scn> filter(o);
+  const SegmentFiltering<Scn, Extra...> filter(o, extra...);
   auto before = filter.context(scene, 2);
   filter.build_pool(before);
   const auto grid = filtering::grid(o, filter.initial_cell_size(scene), before.stream);
   Clustering<double> clustering_before;
   filtering::cluster(before, grid, clustering_before, SerialFor{});
   auto after = before;
-  Clustering<double> clustering_after = clustering_before;
+  Clustering<double> clustering_after = clustering_before, of_nothing;
+  if (before.pool.size() > 0) CHECK_THROWS_AS(filtering::order_by_slot(after, of_nothing, SerialFor{}), std::invalid_argument);
   filtering::order_by_slot(after, clustering_after, testing::TwoThreadFor{});
 
   // The numbering expected: the ending slots' segments in slot order, then the others in order.
@@ -75,7 +83,7 @@ Seen check_renaming(const Scn& scene, const FilteringOptions<double>& o, const s
   for (std::size_t i = 0; i < clustering_after.ending_segments().size(); ++i)
     identity_mismatches += clustering_after.ending_segments()[i] != i;
   CHECK(identity_mismatches == 0);
-  CHECK(pool_mismatches(before.pool, after.pool, new_of_old) == 0);
+  CHECK(pool_mismatches(before, after, new_of_old) == 0);
   CHECK(after.pool.next_event_segments == before.pool.next_event_segments);
   CHECK(after.pool.bridge_targets == before.pool.bridge_targets);
 
@@ -93,7 +101,7 @@ Seen check_renaming(const Scn& scene, const FilteringOptions<double>& o, const s
   std::vector<double> geometry_before, geometry_after;
   finish(before, clustering_before, radiance_before, geometry_before);
   finish(after, clustering_after, radiance_after, geometry_after);
-  CHECK(pool_mismatches(before.pool, after.pool, new_of_old) == 0);  // the densities D
+  CHECK(pool_mismatches(before, after, new_of_old) == 0);  // the densities D
   REQUIRE(radiance_after.size() == n);
   REQUIRE(geometry_after.size() == n);
   std::size_t value_mismatches = 0, nonzero = 0;
@@ -102,7 +110,7 @@ Seen check_renaming(const Scn& scene, const FilteringOptions<double>& o, const s
     nonzero += !is_black(radiance_before[s]);
   }
   CHECK(value_mismatches == 0);
-  return {n, n - ending.size(), nonzero};
+  return {n, n - ending.size(), nonzero, before.extra_density.size()};
 }
 
 }  // namespace
@@ -134,5 +142,51 @@ TEST_CASE("the pool in slot order is a renaming: every array, the clusters and t
     if (mode != FilteringMode::mvf) CHECK(g.valued > g.segments / 10);
     CHECK(p.segments > 500);
     CHECK(p.valued > p.segments / 2);
+  }
+  // A user's own technique: its densities are renamed with the pool.
+  using Cosine = example::CosineSurfaceSampler<testing::PhotographedSphereInterior<double>>;
+  FilteringOptions<double> o;
+  o.max_length = 5;
+  o.initial_cell_size = 0.3;
+  const Seen u = check_renaming(sphere, o, "sphere interior, bdpf with a user technique", FilteringTechnique<Cosine>{Cosine{}, 0.5});
+  CHECK(u.extra_densities == u.segments);
+}
+
+// The renderer's path (cluster_in_slot_order inside render_iteration_at, on two threads) against
+// the same stages run without the renumbering: the same image, pixel for pixel.
+TEST_CASE("BDPF's iteration, which renumbers its pool, gives the image of the stages without it", "[algorithms]") {
+  const testing::PhotographedSphereInterior<double> scene(12);
+  FilteringOptions<double> o;
+  o.mode = FilteringMode::bdpf;
+  o.max_length = 5;
+  o.initial_cell_size = 0.3;
+  o.seed = 4;
+  REQUIRE(path_conditioned(o));
+  const SegmentFiltering<testing::PhotographedSphereInterior<double>> filter(o);
+  const std::uint32_t pixels = 12 * 12;
+  for (const std::uint64_t iteration : {0, 3}) {
+    const double cell = filter.kernel_schedule(scene).at(iteration);
+    Framebuffer<double> rendered(12, 12);
+    DropCounters drops;
+    filter.render_iteration_at(scene, iteration, cell, rendered, drops, testing::TwoThreadFor{});
+    // The stages in the drawn order.
+    auto ctx = filter.context(scene, iteration);
+    filter.build_pool(ctx);
+    Clustering<double> clustering;
+    filtering::cluster(ctx, filtering::grid(o, cell, ctx.stream), clustering, SerialFor{});
+    filtering::LightSide<double> side;
+    filtering::compute_densities(ctx, clustering, SerialFor{}, &side);
+    std::vector<double> radiance, geometry;
+    filtering::propagate_conditioned_pool(ctx, clustering, side, int(o.max_length) - 1, radiance, geometry, SerialFor{});
+    Framebuffer<double> staged(12, 12);
+    for (std::size_t i = 0; i < ctx.pool.size(); ++i)
+      if (ctx.pool.flags[i] & filtering::sensor_segment) staged.add(ctx.pool.pixel[i], radiance[i] * (ctx.pool.sensor_weight[i] * geometry[i]));
+    std::size_t differ = 0, lit = 0;
+    for (std::uint32_t p = 0; p < pixels; ++p) {
+      differ += rendered.pixels()[p] != staged.pixels()[p];
+      lit += rendered.pixels()[p] > 0;
+    }
+    CHECK(differ == 0);
+    CHECK(lit == pixels);
   }
 }

@@ -5,6 +5,8 @@
 //     as data) draws the pool (approximate sequential segments, N33; delta bounces fold into
 //     chains), then the user's own samplers;
 //  2. support.hpp: voxel clusters or disks join ends to starts (the kernel, SPEC 1.2);
+//     slot_order.hpp: on voxels, for the path-conditioned weighting, the pool renumbered in the
+//     clusters' ending-slot order;
 //  3. densities.hpp, light_side.hpp: every segment's MMIS denominator over every technique
 //     sample of the set (N39);
 //  4. propagation.hpp: Algorithm 1's Jacobi sweeps with the paper's or the path-conditioned

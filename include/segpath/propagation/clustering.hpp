@@ -192,7 +192,9 @@ class Clustering {
   /// Renames the segments: segment s becomes new_of_old[s] (a permutation of [0, #segments),
   /// else std::invalid_argument). Every cluster keeps its slots in the same order, so per-slot
   /// data is unchanged; only the segment ids they name (and the per-segment lookups) follow the
-  /// new numbering. Kept refs (keep_refs) keep their order, no longer sorted by segment.
+  /// new numbering. Kept refs (keep_refs) keep their order, no longer sorted by segment: a
+  /// clustering built afresh on the renamed segments would order each cluster's slots by the new
+  /// ids instead.
   template <ParallelFor P = SerialFor>
   void renumber(std::span<const std::uint32_t> new_of_old, const P& parallel_for = {}) {
     const std::size_t n = cluster_of_x_.size();
@@ -206,14 +208,16 @@ class Clustering {
                                     " segments (new id " + std::to_string(t) + (t >= n ? " out of range)" : " twice)"));
       taken[t] = true;
     }
-    auto scatter = [&](std::vector<std::uint32_t>& v) {
-      std::vector<std::uint32_t> out(n);
-      for_blocks(n, parallel_for, [&](std::size_t s) { out[new_of_old[s]] = v[s]; });
-      v.swap(out);
-    };
-    scatter(cluster_of_x_);
-    scatter(cluster_of_y_);
-    scatter(ending_slot_of_);
+    // Everything allocated before anything changes: an exception leaves the clustering as it was.
+    std::vector<std::uint32_t> x(n), y(n), slot(n);
+    for_blocks(n, parallel_for, [&](std::size_t s) {
+      x[new_of_old[s]] = cluster_of_x_[s];
+      y[new_of_old[s]] = cluster_of_y_[s];
+      slot[new_of_old[s]] = ending_slot_of_[s];
+    });
+    cluster_of_x_.swap(x);
+    cluster_of_y_.swap(y);
+    ending_slot_of_.swap(slot);
     for_blocks(starting_segment_.size(), parallel_for, [&](std::size_t j) { starting_segment_[j] = new_of_old[starting_segment_[j]]; });
     for_blocks(ending_segment_.size(), parallel_for, [&](std::size_t i) { ending_segment_[i] = new_of_old[ending_segment_[i]]; });
     for (EndpointRef& r : refs_) r.segment = new_of_old[r.segment];

@@ -29,7 +29,9 @@ enum PoolFlag : std::uint16_t {
   kept_density = 1024,      ///< a chain only its light start draws (kept_chain): its D is the draw's, Record::density
 };
 
-/// One iteration's segments, structure of arrays (memory O(#segments)).
+/// One iteration's segments, structure of arrays (memory O(#segments)). Drawn in path order;
+/// on voxels with the path-conditioned weighting renumbered after the clustering
+/// (slot_order.hpp: an array added here must be renumbered there too).
 template <Real T, Spectrum S>
 struct Pool {
   std::vector<Segment<T>> segments;

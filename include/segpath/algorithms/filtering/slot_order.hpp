@@ -1,7 +1,8 @@
 // The support stage on voxels, continued: the pool renumbered in the clusters' ending-slot
 // order. Paths are drawn, and pooled, in path order, but every later stage walks the
 // clusters and reads the pool by slot (densities, factorisation, transfer, propagation); with the
-// segments numbered in slot order those reads run through memory in order instead of at random.
+// segments numbered in ending-slot order the reads by ending slot run through memory in order
+// instead of at random (those by starting slot stay at random).
 // A renaming only: every stage computes the same numbers in the same order, and since each pixel
 // receives one sensor segment per pass, the image is the same bit for bit. SegmentFiltering
 // renumbers where the propagation is path-conditioned (BDPF's default), where it pays most
@@ -16,6 +17,8 @@
 
 #include <cstdint>
 #include <span>
+#include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -38,6 +41,10 @@ void order_by_slot(Context<Scn>& ctx, Clustering<typename Scn::Scalar>& clusteri
                    std::vector<Segment<typename Scn::Scalar>> segment_storage = {}) {
   auto& pool = ctx.pool;
   const std::size_t n = pool.size();
+  if (clustering.segment_count() != n || !(ctx.extra_density.empty() || ctx.extra_density.size() == n))
+    throw std::invalid_argument("segpath::filtering::order_by_slot: a clustering of " + std::to_string(clustering.segment_count()) +
+                                " segments and " + std::to_string(ctx.extra_density.size()) + " user densities for a pool of " +
+                                std::to_string(n));
   const auto ending = clustering.ending_segments();
   std::vector<std::uint32_t> old_of_new(ending.begin(), ending.end());
   old_of_new.reserve(n);
