@@ -127,8 +127,8 @@ struct FilteringStats {
   /// the whole pool.
   std::size_t forced_value_bytes = 0;
   /// Wall time of the stages of render_iteration: paths (pool), support (clusters or disk
-  /// junctions, and the pool's renumbering in slot order), densities (MMIS denominators, light side), propagation (with its pair
-  /// evaluations), gather (pixels).
+  /// junctions, and the pool's renumbering in slot order), densities (MMIS denominators, light
+  /// side), propagation (with its pair evaluations), gather (pixels).
   double paths_seconds = 0, support_seconds = 0, densities_seconds = 0, propagation_seconds = 0, gather_seconds = 0;
   std::uint32_t passes = 1;  ///< the pools (FilteringOptions::pixel_passes) the counts and seconds sum over
 
