@@ -76,14 +76,20 @@ struct BruteForceHit {
 };
 
 /// The exact distance in (0, t_limit) at which the query meets triangle k of `tris`, or
-/// infinity: embree_accept_triangle's tests (not a surface the origin, or with
-/// skip_far_surface the far endpoint, lies on) and the triangle's own extent. Branch-free.
+/// infinity: embree_accept_triangle's tests (not a surface the origin, or with FarTest the far
+/// endpoint, lies on) and the triangle's own extent. Branch-free. A closest-hit query skips no
+/// far surface: it leaves the far test out (FarTest false) rather than pass a band of -infinity.
+template <bool FarTest>
 [[nodiscard]] SEGPATH_FORCE_INLINE double brute_force_triangle_distance(const BruteForceTriangles& tris, std::size_t k,
                                                                         const EmbreeQueryContext& q, double origin_band,
                                                                         double far_band, double t_limit) noexcept {
   const double s = tris.nx[k] * q.origin.x + tris.ny[k] * q.origin.y + tris.nz[k] * q.origin.z - tris.offset[k];
   const double cosine = tris.nx[k] * q.direction.x + tris.ny[k] * q.direction.y + tris.nz[k] * q.direction.z;
-  const double far = tris.nx[k] * q.far_point.x + tris.ny[k] * q.far_point.y + tris.nz[k] * q.far_point.z - tris.offset[k];
+  int far_clear = 1;
+  if constexpr (FarTest) {
+    const double far = tris.nx[k] * q.far_point.x + tris.ny[k] * q.far_point.y + tris.nz[k] * q.far_point.z - tris.offset[k];
+    far_clear = int(std::abs(far) > far_band + tris.band[k]);
+  }
   const double t = -s / cosine;
   const double px = q.origin.x + t * q.direction.x - tris.v0x[k];
   const double py = q.origin.y + t * q.direction.y - tris.v0y[k];
@@ -91,7 +97,7 @@ struct BruteForceHit {
   const double b1 = px * tris.d1x[k] + py * tris.d1y[k] + pz * tris.d1z[k];
   const double b2 = px * tris.d2x[k] + py * tris.d2y[k] + pz * tris.d2z[k];
   // Bitwise, not short-circuit: every lane evaluates every test.
-  const int hit = int(std::abs(s) > origin_band + tris.band[k]) & int(std::abs(far) > far_band + tris.band[k]) & int(t > 0) &
+  const int hit = int(std::abs(s) > origin_band + tris.band[k]) & far_clear & int(t > 0) &
                   int(t < t_limit) & int(b1 >= -brute_force_edge_slack) & int(b2 >= -brute_force_edge_slack) &
                   int(b1 + b2 <= 1 + brute_force_edge_slack);
   return hit != 0 ? t : std::numeric_limits<double>::infinity();
@@ -109,12 +115,19 @@ struct BruteForceHit {
 inline constexpr std::size_t brute_force_chunk = 32;
 
 /// The distances of triangles [first, first + count) (count <= brute_force_chunk) into `out`.
+template <bool FarTest>
 SEGPATH_FORCE_INLINE void brute_force_chunk_distances(const BruteForceTriangles& tris, std::size_t first, std::size_t count,
                                                       const EmbreeQueryContext& q, double origin_band, double far_band,
                                                       double* out) noexcept {
   for (std::size_t l = 0; l < count; ++l)
-    out[l] = brute_force_triangle_distance(tris, first + l, q, origin_band, far_band, q.t_max);
+    out[l] = brute_force_triangle_distance<FarTest>(tris, first + l, q, origin_band, far_band, q.t_max);
 }
+
+/// The nearest of the triangles' distances is kept per lane of this many: a running minimum
+/// over all of them would be one chain of dependent compares and moves, the longest part of a
+/// closest-hit query in a small scene (docs/figures.md).
+inline constexpr std::size_t brute_force_lanes = 4;
+static_assert(brute_force_chunk % brute_force_lanes == 0);
 
 /// brute_force_intersect's body, compiled once per instruction set (brute_force_intersect).
 template <Real T>
@@ -122,13 +135,12 @@ template <Real T>
                                                                                          const BruteForceTriangles& tris,
                                                                                          const EmbreeQueryContext& q) noexcept {
   const double origin_band = embree_on_surface_tolerance<T>(q.origin, 0.0);
-  constexpr double no_far = -std::numeric_limits<double>::infinity();  // rejects nothing
   double best = q.t_max;
   std::size_t best_k = tris.size();
   double t[brute_force_chunk];
   for (std::size_t first = 0; first < tris.size(); first += brute_force_chunk) {
     const std::size_t count = std::min(brute_force_chunk, tris.size() - first);
-    brute_force_chunk_distances(tris, first, count, q, origin_band, no_far, t);
+    brute_force_chunk_distances<false>(tris, first, count, q, origin_band, 0.0, t);
     for (std::size_t l = 0; l < count; ++l) {
       best_k = t[l] < best ? first + l : best_k;
       best = t[l] < best ? t[l] : best;
@@ -161,7 +173,7 @@ template <Real T>
   double t[brute_force_chunk];
   for (std::size_t first = 0; first < tris.size(); first += brute_force_chunk) {
     const std::size_t count = std::min(brute_force_chunk, tris.size() - first);
-    brute_force_chunk_distances(tris, first, count, q, origin_band, far_band, t);
+    brute_force_chunk_distances<true>(tris, first, count, q, origin_band, far_band, t);
     bool blocked = false;
     for (std::size_t l = 0; l < count; ++l) blocked |= t[l] < q.t_max;
     if (blocked) return true;
