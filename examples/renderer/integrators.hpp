@@ -58,6 +58,8 @@ struct MethodOptions {
   std::optional<double> radius;  ///< kernel radius (VCM family) or voxel size (filtering); unset: method default
   std::optional<double> alpha;   ///< progressive reduction, in (0, 1); unset: the method's library default
   std::optional<double> beta;    ///< light paths per camera path (> 0); unset: the method's library default
+  /// mvf, bdpf: FilteringOptions::camera_continuation, in (0, 1]; unset: the library default
+  std::optional<double> camera_continuation;
   /// pt, lt, the VCM family: Russian roulette from this path length on (0: never); unset: the method's default
   std::optional<std::size_t> roulette_from;
   segpath::FilteringSupport support = segpath::FilteringSupport::voxel;  ///< filtering: junction support
@@ -75,7 +77,7 @@ struct MethodOptions {
 /// numbers (image_options), so a render whose defaults have changed since is refused instead of
 /// resumed with other settings. Unset: the method does not use the setting.
 struct ResolvedSettings {
-  std::optional<double> alpha, beta;
+  std::optional<double> alpha, beta, camera_continuation;
   std::optional<std::size_t> roulette_from;
   /// The automatic initial kernel (merge radius, voxel size) in average pixel footprints, where
   /// the method has a kernel and --radius is unset (its size follows from the scene).
@@ -415,6 +417,7 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
     ResolvedSettings r;
     r.alpha = double(f.alpha);
     if constexpr (Mode != segpath::FilteringMode::mvf) r.beta = double(f.light_path_ratio);
+    if constexpr (Mode != segpath::FilteringMode::phf) r.camera_continuation = double(f.camera_continuation);
     if (!(f.initial_cell_size > T(0))) r.kernel_in_footprints = segpath::filtering::cell_in_footprints;
     return r;
   }
@@ -425,6 +428,7 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
     f.mode = Mode;
     f.max_length = o.max_length;
     if (o.beta) f.light_path_ratio = T(*o.beta);
+    if (o.camera_continuation) f.camera_continuation = T(*o.camera_continuation);
     if (o.radius) f.initial_cell_size = T(*o.radius);
     if (o.alpha) f.alpha = T(*o.alpha);
     f.seed = o.seed;

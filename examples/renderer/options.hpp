@@ -43,7 +43,7 @@ struct Options {
   std::uint32_t width = 512, height = 512;
   std::size_t max_length = cornell_max_length;
   std::optional<double> radius;
-  std::optional<double> alpha, beta;
+  std::optional<double> alpha, beta, camera_continuation;
   std::optional<std::size_t> roulette_from;
   std::string support = "voxel";
   bool bridges = false;
@@ -116,6 +116,14 @@ inline const CLI::Validator open_unit_interval(
     },
     "IN (0,1)");
 
+inline const CLI::Validator half_open_unit_interval(
+    [](std::string& s) -> std::string {
+      double v = 0;
+      if (!CLI::detail::lexical_cast(s, v) || !(v > 0 && v <= 1)) return "must lie in (0, 1], got " + s;
+      return {};
+    },
+    "IN (0,1]");
+
 /// The command line's outcome: options to render with, or an exit code and the text to print
 /// (--help: on stdout, code 0; a parse error: on stderr, code 2).
 struct CommandLine {
@@ -160,6 +168,10 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
                  "pt/lt/bdpt/ppm/bpm/vcm: Russian roulette after every scattering from this path length (segments) on, "
                  "0: never; default 3 (pt), 1 (bdpt, ppm, bpm, vcm: SmallVCM's), 0 (lt)")
       ->check(unsigned_integer)->check(CLI::Range(std::size_t(0), std::size_t(1000)));
+  app.add_option("--camera-continuation", o.camera_continuation,
+                 "mvf/bdpf: probability that a camera path continues at a non-delta vertex (Russian roulette at "
+                 "every depth), in (0, 1]; default 1 (no roulette)")
+      ->check(half_open_unit_interval);
   app.add_option("--support", o.support, "mvf/phf/bdpf: kernel support of the junctions, voxel (the paper's) or disk")
       ->check(CLI::IsMember({"voxel", "disk"}))
       ->capture_default_str();
@@ -237,6 +249,7 @@ inline MethodOptions method_options(const Options& o) {
   mo.radius = o.radius;
   mo.alpha = o.alpha;
   mo.beta = o.beta;
+  mo.camera_continuation = o.camera_continuation;
   mo.roulette_from = o.roulette_from;
   mo.support = o.support == "disk" ? segpath::FilteringSupport::disk : segpath::FilteringSupport::voxel;
   mo.bridges = o.bridges;
@@ -286,6 +299,7 @@ inline std::string image_options(const Options& o) {
                                           : std::string("default"));
   line("alpha", r.alpha ? resolved_number(r.alpha) : optional(o.alpha));
   line("beta", r.beta ? resolved_number(r.beta) : optional(o.beta));
+  line("camera-continuation", r.camera_continuation ? resolved_number(r.camera_continuation) : optional(o.camera_continuation));
   const std::optional<std::size_t> roulette_from = r.roulette_from ? r.roulette_from : o.roulette_from;
   line("roulette-from", roulette_from ? std::to_string(*roulette_from) : std::string("default"));
   line("support", o.support);

@@ -12,6 +12,8 @@
 
 #include <algorithm>
 #include <iterator>
+#include <limits>
+#include <string>
 #include <thread>
 #include <tuple>
 #include <utility>
@@ -99,6 +101,17 @@ TEST_CASE("segment filtering: bad options are rejected", "[algorithms]") {
   o.light_continuation = -1;  // automatic: light paths of max_length - 1 segments on average
   o.max_length = 10;
   CHECK(filtering::technique_set(o).light_continuation == Approx(8.0 / 9.0));
+  o = {};
+  for (const double bad : {0.0, -0.5, 1.5, std::numeric_limits<double>::quiet_NaN()}) {
+    o.camera_continuation = bad;
+    CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
+  }
+  o.camera_continuation = 1;  // no roulette
+  CHECK_NOTHROW(SegmentFiltering<Scn>(o));
+  o.camera_continuation = 0.6;
+  CHECK(filtering::technique_set(o).camera_continuation == Approx(0.6));
+  o.mode = FilteringMode::phf;  // no camera successors: no roulette
+  CHECK(filtering::technique_set(o).camera_continuation == 0);
 }
 
 // Light paths end by Russian roulette, not at a depth: with a depth limit, whether a light-born
@@ -179,9 +192,11 @@ TEST_CASE("MVF, PhF and BDPF: a fast furnace check for the sanitizer run", "[alg
   // test checks that their bias shrinks with r).
   // PhF and BDPF also in three pixel passes (FilteringOptions::pixel_passes). Not MVF: a pass's
   // ~21 camera paths leave clusters without a technique sample (its coverage bias, -4 % here).
+  // MVF and BDPF also with the camera paths' Russian roulette (camera_continuation 0.6, "rr").
   for (const FilteringMode mode : {FilteringMode::mvf, FilteringMode::phf, FilteringMode::bdpf}) {
-    for (const std::uint32_t passes : {1u, 3u}) {
-      if (mode == FilteringMode::mvf && passes > 1) continue;
+    for (const std::uint32_t passes : {1u, 3u, 0u}) {
+      if (mode == FilteringMode::mvf && passes == 3) continue;
+      if (mode == FilteringMode::phf && passes == 0) continue;
       const FilteringSupport support = FilteringSupport::voxel;
       FilteringOptions<double> o;
       o.mode = mode;
@@ -189,7 +204,8 @@ TEST_CASE("MVF, PhF and BDPF: a fast furnace check for the sanitizer run", "[alg
       o.support = support;
       o.jitter = false;
       o.seed = 21;
-      o.pixel_passes = passes;
+      o.pixel_passes = std::max(passes, 1u);
+      if (passes == 0) o.camera_continuation = 0.6;
       const SegmentFiltering<PhotographedSlab<double>> method(o);
       testing::RunningStats stats;
       DropCounters drops;
@@ -200,7 +216,7 @@ TEST_CASE("MVF, PhF and BDPF: a fast furnace check for the sanitizer run", "[alg
         for (auto v : image.pixels()) mean += v;
         stats.add(mean / 64.0);
       }
-      INFO(to_string(mode) << ", " << to_string(support) << ", " << passes << " passes: " << stats.mean() << " +- "
+      INFO(to_string(mode) << ", " << to_string(support) << ", " << (passes == 0 ? "rr" : std::to_string(passes) + " passes") << ": " << stats.mean() << " +- "
                            << stats.standard_error() << " vs " << expected);
       CHECK(drops.total() == 0);
       CHECK(std::abs(stats.mean() - expected) <= 5 * stats.standard_error() + 1e-9 * expected);
@@ -222,11 +238,13 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
   for (unsigned k = 0; k < max_length; ++k) expected += scene.bounce_radiance(testing::SlabSide::a, k);
   // Next-event segments add a camera-side technique to MVF and BDPF; the last variant draws
   // each iteration in three pixel passes.
-  const std::tuple<FilteringMode, bool, std::uint32_t> variants[] = {
-      {FilteringMode::mvf, false, 1}, {FilteringMode::phf, false, 1}, {FilteringMode::bdpf, false, 1},
-      {FilteringMode::mvf, true, 1},  {FilteringMode::bdpf, true, 1}, {FilteringMode::bdpf, true, 3}};
+  // The last two continue camera paths with probability 0.6 (camera_continuation).
+  const std::tuple<FilteringMode, bool, std::uint32_t, double> variants[] = {
+      {FilteringMode::mvf, false, 1, 1.0}, {FilteringMode::phf, false, 1, 1.0}, {FilteringMode::bdpf, false, 1, 1.0},
+      {FilteringMode::mvf, true, 1, 1.0},  {FilteringMode::bdpf, true, 1, 1.0}, {FilteringMode::bdpf, true, 3, 1.0},
+      {FilteringMode::mvf, true, 1, 0.6},  {FilteringMode::bdpf, true, 1, 0.6}};
   const double alpha = testing::sidak_alpha(0.01, std::size(variants));
-  for (const auto& [mode, next_event, passes] : variants) {
+  for (const auto& [mode, next_event, passes, camera_continuation] : variants) {
     FilteringOptions<double> o;
     o.mode = mode;
     o.max_length = max_length;
@@ -234,6 +252,7 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
     o.jitter = false;
     o.next_event = next_event;
     o.pixel_passes = passes;
+    o.camera_continuation = camera_continuation;
     o.seed = 11;
     const SegmentFiltering<PhotographedSlab<double>> method(o);
     // Each iteration's image mean is one sample (pixels of one iteration are correlated).
@@ -247,7 +266,8 @@ TEST_CASE("MVF, PhF and BDPF are exact in the periodic-slab furnace", "[algorith
       for (auto v : image.pixels()) mean += v;
       stats.add(mean / 256.0);
     }
-    INFO(to_string(mode) << (next_event ? " + next-event" : "") << ", " << passes << " passes: " << stats.mean() << " +- " << stats.standard_error() << " vs " << expected);
+    INFO(to_string(mode) << (next_event ? " + next-event" : "") << ", " << passes << " passes, camera continuation "
+                         << camera_continuation << ": " << stats.mean() << " +- " << stats.standard_error() << " vs " << expected);
     CHECK(drops.total() == 0);
     if (stats.variance() < 1e-20) {
       CHECK(stats.mean() == Approx(expected).epsilon(1e-9));  // MVF in the furnace: every sample exact
@@ -318,7 +338,7 @@ auto disk_kernel(const Scn& scene, const Pool& pool, double r) {
 /// densities count its own light paths.
 template <class Scn>
 void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, double cell, std::uint32_t passes = 1,
-                              std::uint32_t pass = 0) {
+                              std::uint32_t pass = 0, double camera_continuation = 1) {
   using Filter = SegmentFiltering<Scn>;
   for (const bool factorise : {false, true}) {
     FilteringOptions<double> o;
@@ -328,6 +348,7 @@ void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, d
     o.bridges = bridges;
     o.next_event = next_event;
     o.pixel_passes = passes;
+    o.camera_continuation = camera_continuation;
     const Filter filter(o);
     auto ctx = filter.context(scene, 1, pass);
     filter.build_pool(ctx);
@@ -353,7 +374,7 @@ void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, d
 }
 
 template <class Scn>
-void check_disk_denominators(const Scn& scene, bool bridges, bool next_event, double r) {
+void check_disk_denominators(const Scn& scene, bool bridges, bool next_event, double r, double camera_continuation = 1) {
   using Filter = SegmentFiltering<Scn>;
   FilteringOptions<double> o;
   o.max_length = 5;
@@ -361,6 +382,7 @@ void check_disk_denominators(const Scn& scene, bool bridges, bool next_event, do
   o.support = FilteringSupport::disk;
   o.bridges = bridges;
   o.next_event = next_event;
+  o.camera_continuation = camera_continuation;
   const Filter filter(o);
   auto ctx = filter.context(scene, 1);
   filter.build_pool(ctx);
@@ -413,6 +435,8 @@ TEST_CASE("every MMIS denominator includes every technique sample of its cluster
   check_voxel_denominators(PhotographedSphere(8), true, true, 0.4);
   // The second of two pixel passes (81 pixels: 41 and 40): its light paths are half the iteration's.
   check_voxel_denominators(PhotographedSphere(9), true, true, 0.4, 2, 1);
+  // Camera paths that continue with probability 0.6: their successors' densities carry it.
+  check_voxel_denominators(PhotographedSphere(8), false, true, 0.4, 1, 0, 0.6);
 }
 
 TEST_CASE("segment filtering: the pixel passes of an iteration draw every pixel once, from streams of their own",
@@ -518,6 +542,7 @@ TEST_CASE("every MMIS denominator includes every technique sample of its disk", 
   check_disk_denominators(PhotographedSlab<double>(furnace, 8), false, true, 0.25);
   check_disk_denominators(PhotographedSphere(8), false, false, 0.25);
   check_disk_denominators(PhotographedSphere(8), true, true, 0.25);
+  check_disk_denominators(PhotographedSphere(8), false, true, 0.25, 0.6);  // camera roulette
 }
 
 TEST_CASE("segment filtering: disk support, bridges and next-event segments do not depend on the thread count", "[algorithms]") {

@@ -623,7 +623,9 @@ TEST_CASE("BDPF's image mean is PT's in a closed diffuse box at max length 2, 3 
   const std::filesystem::path data = std::filesystem::path(__FILE__).parent_path() / "data" / "diffuse_box.obj";
   const RenderScene scene = renderer::load_obj_scene(data.string(), camera, side, side);
   Tiles whole{std::vector<int>(std::size_t(side) * side, 0), 1};
-  for (const std::size_t max_length : {2, 3, 10}) {
+  // Max length 10 twice: the second with the camera paths' Russian roulette (continuation 0.6),
+  // whose coin every camera successor's density carries.
+  for (const auto& [max_length, camera_continuation] : {std::pair<std::size_t, float>{2, 1.0f}, {3, 1.0f}, {10, 1.0f}, {10, 0.6f}}) {
     renderer::MethodOptions options;
     options.seed = 500 + max_length;
     options.max_length = max_length;
@@ -631,7 +633,8 @@ TEST_CASE("BDPF's image mean is PT's in a closed diffuse box at max length 2, 3 
     segpath::FilteringOptions<float> o;
     o.max_length = max_length;
     o.jitter = false;
-    o.seed = 600 + max_length;
+    o.seed = 600 + max_length + (camera_continuation < 1.0f ? 1000 : 0);
+    o.camera_continuation = camera_continuation;
     const Filter filter(o);
     const renderer::ThreadCountingScene counting(scene);
     RunningStats bdpf;
@@ -644,7 +647,7 @@ TEST_CASE("BDPF's image mean is PT's in a closed diffuse box at max length 2, 3 
       bdpf.add(mean / image.pixel_count());
     }
     const double sigma = std::hypot(pt.standard_error(), bdpf.standard_error());
-    INFO("max length " << max_length << ": BDPF / PT " << bdpf.mean() / pt.mean() << " +- " << sigma / pt.mean() << " (PT "
+    INFO("max length " << max_length << ", camera continuation " << camera_continuation << ": BDPF / PT " << bdpf.mean() / pt.mean() << " +- " << sigma / pt.mean() << " (PT "
                        << pt.mean() << " +- " << pt.standard_error() << ")");
     CHECK(drops.total() == 0);
     CHECK(std::abs(bdpf.mean() - pt.mean()) <= 3 * sigma);

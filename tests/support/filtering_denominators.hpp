@@ -129,7 +129,8 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
         camera_points += k;
         if (k > 0 && !kept && !dirac_end) {
           const double measure = chain ? 1.0 : double(solid_angle_to_area(T(1), seg.x, seg.y));
-          d += k * measure *
+          // The camera roulette's coin is part of the draw (FilteringOptions::camera_continuation).
+          d += double(filter.options().camera_continuation) * k * measure *
                double(bsdf.pdf(BsdfQuery<T>{pool.segments[t].y, -pool.last_direction[t], pool.first_direction[s], Transport::radiance}));
           ++techniques;
         }

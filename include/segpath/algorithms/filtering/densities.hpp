@@ -62,8 +62,10 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
   auto& stats = ctx.stats;
   const auto clusters = clustering.clusters();
   if (side) light_side_start(ctx, *side, parallel_for);
-  // Light technique densities carry the roulette's c (TechniqueSet::light_continuation).
+  // Technique densities carry the roulettes' c (TechniqueSet::light_continuation and
+  // camera_continuation).
   const T continuation = T(ctx.techniques.light_continuation);
+  const T camera_continuation = T(ctx.techniques.camera_continuation);
   std::vector<T> camera_sum(pool.size(), T(0)), light_sum(pool.size(), T(0));
   std::vector<std::uint64_t> pairs(clusters.size(), 0);
   std::vector<std::uint8_t> camera_fact(clusters.size(), 0), light_fact(clusters.size(), 0);
@@ -114,7 +116,7 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
             pairs[c] += 1;
           }
         }
-        camera_sum[sp] = cl.kernel * sum * camera_measure<Scn>(pool, sp);
+        camera_sum[sp] = camera_continuation * cl.kernel * sum * camera_measure<Scn>(pool, sp);
       }
     }
     // Light technique samples: segments starting here that were continued backwards; they
@@ -215,7 +217,7 @@ void compute_densities(Context<Scn>& ctx, const DiskJunctions<typename Scn::Scal
         sum += camera_technique_pdf(scene, pool, t, sp);
         pairs[c] += 1;
       }
-      if (sum > T(0)) camera_sum[sp] = kernel * sum * camera_measure<Scn>(pool, sp);
+      if (sum > T(0)) camera_sum[sp] = T(ctx.techniques.camera_continuation) * kernel * sum * camera_measure<Scn>(pool, sp);
       sum = T(0);
       for (const std::uint32_t u : junctions.starting_near(sp)) {
         targets += (bridges && is_bridge_target(pool, u)) ? 1 : 0;

@@ -65,6 +65,10 @@ struct FilteringOptions {
   /// segment at a non-delta surface is a light technique sample, of density c q. Negative:
   /// (max_length - 2) / (max_length - 1), light paths of max_length - 1 segments on average.
   T light_continuation = T(-1);
+  /// MVF, BDPF: the probability c_c that a camera path draws a successor at a non-delta vertex
+  /// (Russian roulette, the same at every depth, before the max_length limit), in (0, 1]. A
+  /// camera successor's density carries it, as a light predecessor's carries c. 1: no roulette.
+  T camera_continuation = T(1);
   T initial_cell_size = 0;       ///< voxel size of iteration 1; 0: 4x the average pixel footprint
   T alpha = T(0.67);             ///< progressive shrinking of the voxel (PPM schedule)
   bool factorise = true;         ///< use the O(n) sums in factorisable clusters (voxel support)
@@ -168,6 +172,9 @@ void validate(const FilteringOptions<T>& options) {
   if (!(options.light_continuation < T(1)) || std::isnan(options.light_continuation))
     throw std::invalid_argument("segpath::SegmentFiltering: the light continuation probability must be < 1 (negative: automatic), got " +
                                 std::to_string(options.light_continuation));
+  if (!(options.camera_continuation > T(0) && options.camera_continuation <= T(1)))
+    throw std::invalid_argument("segpath::SegmentFiltering: the camera continuation probability must lie in (0, 1], got " +
+                                std::to_string(options.camera_continuation));
   if (options.pixel_passes < 1)
     throw std::invalid_argument("segpath::SegmentFiltering: pixel_passes must be >= 1, got 0");
   if (!(options.alpha > T(0) && options.alpha < T(1)))

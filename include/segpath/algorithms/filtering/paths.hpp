@@ -118,7 +118,10 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
     // angles fail often).
     const bool attempted = ctx.techniques.camera_successors && pieces < max_pieces && y.kind == PointKind::surface;
     if (attempted) r.flags |= camera_technique;
-    const bool continues = attempted && next && !next->delta && next->pdf > T(0);
+    // The roulette is part of the draw (as in trace_light_path); no coin is drawn without one.
+    const T continuation = T(ctx.techniques.camera_continuation);
+    const bool continues = attempted && next && !next->delta && next->pdf > T(0) &&
+                           (continuation >= T(1) || rng.template uniform<T>() < continuation);
     const auto index = std::uint32_t(out.size());
     out.push_back(r);
     if (attempted && ctx.techniques.next_event) add_next_event(scene, index, rng, out);

@@ -13,6 +13,9 @@ struct TechniqueSet {
   bool sensor_start = true;
   /// Approximate successors (N31, N33) from every camera technique point: camera paths.
   bool camera_successors = false;
+  /// c_c: the probability that a camera path draws a successor at a non-delta vertex (Russian
+  /// roulette at every depth); a camera successor's density carries it.
+  double camera_continuation = 1;
   /// Light-end bridges (N34, approximate): from every camera technique point, one segment to a
   /// light point drawn by the emitter.
   bool next_event = false;
@@ -34,6 +37,7 @@ template <Real T>
   TechniqueSet set;
   const bool camera = o.mode != FilteringMode::phf, light = o.mode != FilteringMode::mvf;
   set.camera_successors = camera;
+  set.camera_continuation = camera ? double(o.camera_continuation) : 0.0;
   set.next_event = camera && o.next_event;
   set.light_paths_per_pixel = light ? double(o.light_path_ratio) : 0.0;
   set.light_predecessors = light;
