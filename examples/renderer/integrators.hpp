@@ -58,7 +58,7 @@ struct MethodOptions {
   std::optional<double> radius;  ///< kernel radius (VCM family) or voxel size (filtering); unset: method default
   std::optional<double> alpha;   ///< progressive reduction, in (0, 1); unset: the method's library default
   std::optional<double> beta;    ///< light paths per camera path (> 0); unset: the method's library default
-  /// mvf, bdpf: FilteringOptions::camera_continuation, in (0, 1]; unset: the library default
+  /// mvf, bdpf: FilteringOptions::camera_continuation, in (0, 1]; unset: the library's automatic one
   std::optional<double> camera_continuation;
   /// pt, lt, the VCM family: Russian roulette from this path length on (0: never); unset: the method's default
   std::optional<std::size_t> roulette_from;
@@ -417,7 +417,7 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
     ResolvedSettings r;
     r.alpha = double(f.alpha);
     if constexpr (Mode != segpath::FilteringMode::mvf) r.beta = double(f.light_path_ratio);
-    if constexpr (Mode != segpath::FilteringMode::phf) r.camera_continuation = double(f.camera_continuation);
+    if constexpr (Mode != segpath::FilteringMode::phf) r.camera_continuation = segpath::filtering::technique_set(f).camera_continuation;
     if (!(f.initial_cell_size > T(0))) r.kernel_in_footprints = segpath::filtering::cell_in_footprints;
     return r;
   }

@@ -68,7 +68,8 @@ struct FilteringOptions {
   /// MVF, BDPF: the probability c_c that a camera path draws a successor at a non-delta vertex
   /// (Russian roulette, the same at every depth, before the max_length limit), in (0, 1]. A
   /// camera successor's density carries it, as a light predecessor's carries c. 1: no roulette.
-  T camera_continuation = T(1);
+  /// Negative: automatic, filtering::automatic_camera_continuation(mode).
+  T camera_continuation = T(-1);
   T initial_cell_size = 0;       ///< voxel size of iteration 1; 0: 4x the average pixel footprint
   T alpha = T(0.67);             ///< progressive shrinking of the voxel (PPM schedule)
   bool factorise = true;         ///< use the O(n) sums in factorisable clusters (voxel support)
@@ -172,8 +173,8 @@ void validate(const FilteringOptions<T>& options) {
   if (!(options.light_continuation < T(1)) || std::isnan(options.light_continuation))
     throw std::invalid_argument("segpath::SegmentFiltering: the light continuation probability must be < 1 (negative: automatic), got " +
                                 std::to_string(options.light_continuation));
-  if (!(options.camera_continuation > T(0) && options.camera_continuation <= T(1)))
-    throw std::invalid_argument("segpath::SegmentFiltering: the camera continuation probability must lie in (0, 1], got " +
+  if (!(options.camera_continuation > T(0) && options.camera_continuation <= T(1)) && !(options.camera_continuation < T(0)))
+    throw std::invalid_argument("segpath::SegmentFiltering: the camera continuation probability must lie in (0, 1] (negative: automatic), got " +
                                 std::to_string(options.camera_continuation));
   if (options.pixel_passes < 1)
     throw std::invalid_argument("segpath::SegmentFiltering: pixel_passes must be >= 1, got 0");

@@ -8,6 +8,14 @@
 
 namespace segpath::filtering {
 
+/// FilteringOptions::camera_continuation where it is automatic: 0.7 for BDPF, whose light paths
+/// carry much of what deep camera segments would (at equal time it is 0.64-0.78x the relMSE of no
+/// roulette on the four Cornell boxes), 1 (no roulette) for MVF, whose relMSE it raised on three
+/// boxes of four (docs/figures.md, session 36).
+[[nodiscard]] constexpr double automatic_camera_continuation(FilteringMode mode) noexcept {
+  return mode == FilteringMode::bdpf ? 0.7 : 1.0;
+}
+
 struct TechniqueSet {
   /// Sensor start (N29): one sensor segment per pixel (every method has it: the gather needs it).
   bool sensor_start = true;
@@ -37,7 +45,9 @@ template <Real T>
   TechniqueSet set;
   const bool camera = o.mode != FilteringMode::phf, light = o.mode != FilteringMode::mvf;
   set.camera_successors = camera;
-  set.camera_continuation = camera ? double(o.camera_continuation) : 0.0;
+  set.camera_continuation = !camera                          ? 0.0
+                            : o.camera_continuation >= T(0) ? double(o.camera_continuation)
+                                                            : automatic_camera_continuation(o.mode);
   set.next_event = camera && o.next_event;
   set.light_paths_per_pixel = light ? double(o.light_path_ratio) : 0.0;
   set.light_predecessors = light;
