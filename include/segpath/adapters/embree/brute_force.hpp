@@ -123,12 +123,6 @@ SEGPATH_FORCE_INLINE void brute_force_chunk_distances(const BruteForceTriangles&
     out[l] = brute_force_triangle_distance<FarTest>(tris, first + l, q, origin_band, far_band, q.t_max);
 }
 
-/// The nearest of the triangles' distances is kept per lane of this many: a running minimum
-/// over all of them would be one chain of dependent compares and moves, the longest part of a
-/// closest-hit query in a small scene (docs/figures.md).
-inline constexpr std::size_t brute_force_lanes = 4;
-static_assert(brute_force_chunk % brute_force_lanes == 0);
-
 /// brute_force_intersect's body, compiled once per instruction set (brute_force_intersect).
 template <Real T>
 [[nodiscard]] SEGPATH_FORCE_INLINE std::optional<BruteForceHit> brute_force_intersect_body(const EmbreeSceneData<T>& data,

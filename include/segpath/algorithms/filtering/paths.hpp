@@ -73,6 +73,7 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
   const auto response = scene.sensor().importance(SensorQuery<T>{first->segment.x, first->direction});
   if (!response || !(ray.position * ray.direction > T(0))) return;
   const std::size_t max_pieces = ctx.options.max_length;
+  const T continuation = T(ctx.techniques.camera_continuation);  // the roulette's c_c
   Record<T, S> r;
   r.segment.x = first->segment.x;
   r.first_direction = first->direction;
@@ -119,7 +120,6 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
     const bool attempted = ctx.techniques.camera_successors && pieces < max_pieces && y.kind == PointKind::surface;
     if (attempted) r.flags |= camera_technique;
     // The roulette is part of the draw (as in trace_light_path); no coin is drawn without one.
-    const T continuation = T(ctx.techniques.camera_continuation);
     const bool continues = attempted && next && !next->delta && next->pdf > T(0) &&
                            (continuation >= T(1) || rng.template uniform<T>() < continuation);
     const auto index = std::uint32_t(out.size());
