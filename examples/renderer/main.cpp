@@ -215,8 +215,9 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo,
   estimate.light_paths += light_path_slack * pilot_light_path_bytes * scale;
   bytes += estimate.light_paths;
   if (!f) return estimate;
-  // The pool of one pass, and 10 % for the heap's holes around it (docs/figures.md, session 27).
-  estimate.pool = 1.1 * double(f->segments) * scale * double(f->bytes_per_segment) / double(mo.passes);
+  // The pool of one pass, and 10 % for the heap's holes around it (docs/figures.md, session 27),
+  // and the records' unfilled blocks, as many as the pilot's whatever the size.
+  estimate.pool = 1.1 * double(f->segments) * scale * double(f->bytes_per_segment) / double(mo.passes) + double(f->record_slack_bytes);
   bytes += estimate.pool;
   const double cache_budget = mo.transfer_cache_mib ? double(*mo.transfer_cache_mib) * (1 << 20)
                                                     : double(segpath::FilteringOptions<float>{}.transfer_cache_bytes);

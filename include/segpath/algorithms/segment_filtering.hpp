@@ -156,7 +156,9 @@ class SegmentFiltering {
     std::vector<S> radiance;
     std::vector<T> weighted_geometry;
     const int iterations = int(options_.max_length) - 1;
-    std::size_t support_bytes = 0, propagation_bytes = 0;
+    // after_release: what the propagation allocates per segment after it freed the pool's end
+    // points (PoolGeometry::release; voxels only): the peak is the larger of before and after.
+    std::size_t support_bytes = 0, propagation_bytes = 0, after_release = 0;
     filtering::LightSide<T> side;
     const bool conditioned = path_conditioned(options_);
     if (options_.support == FilteringSupport::voxel) {
@@ -171,14 +173,19 @@ class SegmentFiltering {
       filtering::compute_densities(ctx, clustering, parallel_for, conditioned ? &side : nullptr);
       lap(stats.densities_seconds);
       support_bytes = clustering.bytes_per_segment();
+      const std::size_t n = std::max<std::size_t>(pool.size(), 1);
       if (conditioned) {
-        filtering::propagate_conditioned_pool(ctx, clustering, side, iterations, radiance, weighted_geometry, parallel_for);
+        filtering::propagate_conditioned_pool(ctx, clustering, side, iterations, radiance, weighted_geometry, parallel_for,
+                                              filtering::PoolGeometry::release);
         propagation_bytes = filtering::conditioned_bytes_per_segment<S>;
+        after_release = filtering::conditioned_bytes_after_release<S> + (stats.lagged_bytes + stats.forced_value_bytes) / n;
       } else {
-        filtering::propagate_pool(ctx, clustering, iterations, radiance, weighted_geometry, parallel_for);
+        filtering::propagate_pool(ctx, clustering, iterations, radiance, weighted_geometry, parallel_for,
+                                  filtering::PoolGeometry::release);
         // Propagation: diffuse when factorising, the transfer and the workspace.
         propagation_bytes = (options_.factorise ? sizeof(S) : 0) + filtering::Transfer<Scn>::bytes_per_segment() +
                             PairTable<S>::bytes_per_ending_slot + PropagationWorkspace<S>::bytes_per_segment;
+        after_release = PropagationWorkspace<S>::bytes_per_segment + stats.lagged_bytes / n;
       }
     } else {
       DiskJunctions<T> junctions;
@@ -204,8 +211,11 @@ class SegmentFiltering {
       if (is_finite(value)) image.add(pool.pixel[i], value);
       else drops.add(DropReason::non_finite);
     }
-    stats.bytes_per_segment = pool.bytes_per_segment() + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
-                              (pool.size() > 0 ? (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes) / pool.size() : 0);
+    const std::size_t freed = std::min(Pool::geometry_bytes_per_segment, after_release);
+    const std::size_t drawing = sizeof(filtering::Record<T, S>) + pool.bytes_per_segment();  // append's records and pool
+    stats.bytes_per_segment = std::max(
+        drawing, pool.bytes_per_segment() - freed + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
+                     (pool.size() > 0 ? (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes) / pool.size() : 0));
     lap(stats.gather_seconds);
     return stats;
   }

@@ -134,6 +134,11 @@ void check_conditioned(const ConditionedInputs<S, Link, LightPair>& in, int iter
     throw std::invalid_argument("segpath::propagate_conditioned: the per-segment inputs differ in size");
 }
 
+/// The default of propagate_conditioned's by_id_done: nothing to free.
+struct NoAction {
+  void operator()() const noexcept {}
+};
+
 /// Frees the vectors' memory (clear() would keep it).
 template <class... V>
 void release(V&... vectors) noexcept {
@@ -235,11 +240,16 @@ struct ConditionedMemory {
 /// link and light_pair once per pair for the whole propagation instead of once per pair and
 /// iteration. The result is the same. Returns the bytes the table, the lagged values and the U
 /// values of the segments a junction can force took.
-template <JunctionSupport J, Spectrum S, class Link, class LightPair, ParallelFor P = SerialFor>
+///
+/// `by_id_done()` is called once, after the factorised groups' light_pair(s, s') calls and
+/// before the arrays above are allocated: from then on link and light_pair are called only in
+/// their slot form where they have one, so a caller may free there what only the by-id forms
+/// read (segment_filtering frees the pool's end points there: algorithms/filtering/propagation.hpp).
+template <JunctionSupport J, Spectrum S, class Link, class LightPair, ParallelFor P = SerialFor, class ByIdDone = detail::NoAction>
 ConditionedMemory propagate_conditioned(const J& support, const ConditionedInputs<S, Link, LightPair>& in, int iterations,
                                   std::vector<S>& weighted, const P& parallel_for = {},
                                   std::span<const std::uint8_t> factorised = {}, std::span<const S> diffuse = {},
-                                  std::size_t junction_cache_bytes = 0) {
+                                  std::size_t junction_cache_bytes = 0, const ByIdDone& by_id_done = {}) {
   using T = spectrum_scalar_t<S>;
   using Junction = detail::ConditionedJunction<S>;
   static_assert(std::is_same_v<typename J::Scalar, T>, "segpath::propagate_conditioned: the support's Scalar is not the spectrum's");
@@ -251,6 +261,43 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   const auto ending_segment = support.ending_segments();
   const std::size_t ending_slots = std::ranges::size(ending_segment);
   const StartRecords<J> record(support);
+  // Classes of s' in a factorised group: 0 not a potential light technique, 1 potential,
+  // 2 light technique sample. There q_l(s | s') is the same for every potential s', so each
+  // ending slot of a factorised group has three junctions, one per class, fixed for the whole
+  // propagation; those of group g from class_offset[g] on. Built first: they make the last
+  // by-id calls of light_pair (by_id_done).
+  std::vector<std::uint32_t> class_offset;
+  std::vector<detail::ClassJunctions<S>> class_junction;
+  if constexpr (J::factorisable) {
+    if (has_factorisation) {
+      class_offset.resize(factorised.size());
+      std::size_t factorised_slots = 0;
+      for (std::size_t g = 0; g < factorised.size(); ++g) {
+        class_offset[g] = std::uint32_t(factorised_slots);
+        if (factorised[g]) factorised_slots += support.ending_slots(g).end - support.ending_slots(g).begin;
+      }
+      class_junction.resize(factorised_slots);
+      detail::for_groups(support, parallel_for, [&](std::size_t g) {
+        if (!factorised[g]) return;
+        constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
+                                                 conditioned_potential | conditioned_light_technique | conditioned_light_born};
+        const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
+        std::uint32_t representative = no_cluster;
+        for (std::uint32_t j = starting.begin; j < starting.end; ++j)
+          if (const std::uint32_t sp = starting_segment[j]; in.geometry[sp] > T(0) && (in.flags[sp] & conditioned_potential))
+            representative = sp;
+        for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
+          const T ql = representative == no_cluster ? T(0) : T(in.light_pair(ending_segment[i], representative));
+          const S transfer = diffuse[ending_segment[i]] * support.kernel(g);
+          for (int k_class = 0; k_class < 3; ++k_class)
+            class_junction[class_offset[g] + (i - ending.begin)].set(
+                k_class, detail::conditioned_coefficients(detail::conditioned_end(in, ending_segment[i]), class_flags[k_class], T(1),
+                                                          transfer, k_class > 0 ? ql : T(0)));
+        }
+      });
+    }
+  }
+  by_id_done();
   // Everything per slot (or start record), in group order: an iteration reads the values of s'
   // at random once per record and the rest in order.
   // One set of values per ending slot, updated in place: a sweep reads the previous iteration's
@@ -299,40 +346,6 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
     current_w[i] = v.w;
     if (slot_u[i] != 0) current_u[slot_u[i]] = v.u;
   };
-  // Classes of s' in a factorised group: 0 not a potential light technique, 1 potential,
-  // 2 light technique sample. There q_l(s | s') is the same for every potential s', so each
-  // ending slot of a factorised group has three junctions, one per class, fixed for the whole
-  // propagation; those of group g from class_offset[g] on.
-  std::vector<std::uint32_t> class_offset;
-  std::vector<detail::ClassJunctions<S>> class_junction;
-  if constexpr (J::factorisable) {
-    if (has_factorisation) {
-      class_offset.resize(factorised.size());
-      std::size_t factorised_slots = 0;
-      for (std::size_t g = 0; g < factorised.size(); ++g) {
-        class_offset[g] = std::uint32_t(factorised_slots);
-        if (factorised[g]) factorised_slots += support.ending_slots(g).end - support.ending_slots(g).begin;
-      }
-      class_junction.resize(factorised_slots);
-      detail::for_groups(support, parallel_for, [&](std::size_t g) {
-        if (!factorised[g]) return;
-        constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
-                                                 conditioned_potential | conditioned_light_technique | conditioned_light_born};
-        const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
-        std::uint32_t representative = no_cluster;
-        for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-          if (start[record(j)].geometry > T(0) && (start[record(j)].flags & conditioned_potential))
-            representative = starting_segment[j];
-        for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
-          const T ql = representative == no_cluster ? T(0) : T(in.light_pair(ending_segment[i], representative));
-          const S transfer = diffuse[ending_segment[i]] * support.kernel(g);
-          for (int k_class = 0; k_class < 3; ++k_class)
-            class_junction[class_offset[g] + (i - ending.begin)].set(
-                k_class, detail::conditioned_coefficients(end[i], class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0)));
-        }
-      });
-    }
-  }
   // The junction of ending slot i and starting slot j of a general group with kernel K.
   auto junction = [&](std::uint32_t i, std::uint32_t j, T kernel) -> Junction {
     const std::uint32_t s = ending_segment[i], sp = starting_segment[j];

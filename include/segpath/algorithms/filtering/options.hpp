@@ -119,7 +119,10 @@ struct FilteringStats {
   std::uint64_t factorised_camera_clusters = 0, factorised_light_clusters = 0, factorised_transfer_clusters = 0;
   std::uint64_t pair_evaluations = 0;  ///< technique-density and transfer evaluations
   double cell_size = 0;
-  std::size_t bytes_per_segment = 0;    ///< O(#segments) memory, without the transfer cache
+  /// O(#segments) memory at the iteration's peak, without the transfer cache: the larger of the
+  /// drawing's (the path records and the pool they are copied into) and the propagation's (on
+  /// voxels it frees the pool's end points first: filtering::PoolGeometry).
+  std::size_t bytes_per_segment = 0;
   std::size_t transfer_cache_bytes = 0;  ///< FilteringOptions::transfer_cache_bytes at most
   /// In bytes_per_segment: what the propagation copied into slot order for the clusters it
   /// does not factorise (voxel support), for the whole pool.
@@ -131,6 +134,9 @@ struct FilteringStats {
   /// segments a junction can force, and their indices (ConditionedMemory::forced_values), for
   /// the whole pool.
   std::size_t forced_value_bytes = 0;
+  /// Not in bytes_per_segment: what the path records' blocks held unfilled when they were pooled
+  /// (about one block per generator's list, whatever the pool's size).
+  std::size_t record_slack_bytes = 0;
   /// Wall time of the stages of render_iteration: paths (pool), support (clusters or disk
   /// junctions, and the pool's renumbering in slot order), densities (MMIS denominators, light
   /// side), propagation (with its pair evaluations), gather (pixels).
@@ -149,6 +155,7 @@ struct FilteringStats {
     propagation_copy_bytes = std::max(propagation_copy_bytes, p.propagation_copy_bytes);
     lagged_bytes = std::max(lagged_bytes, p.lagged_bytes);
     forced_value_bytes = std::max(forced_value_bytes, p.forced_value_bytes);
+    record_slack_bytes = std::max(record_slack_bytes, p.record_slack_bytes);
     paths_seconds += p.paths_seconds, support_seconds += p.support_seconds, densities_seconds += p.densities_seconds;
     propagation_seconds += p.propagation_seconds, gather_seconds += p.gather_seconds;
     passes += p.passes;

@@ -298,6 +298,7 @@ void draw_paths(Context<Scn>& ctx, const P& parallel_for) {
     for (std::uint64_t l = l0; l < l1; ++l) trace_light_path(ctx, l, light[c]);
   });
   camera.insert(camera.end(), std::make_move_iterator(light.begin()), std::make_move_iterator(light.end()));
+  for (const RecordList<T, S>& list : camera) ctx.stats.record_slack_bytes += list.capacity_bytes() - list.size() * sizeof(Record<T, S>);
   append(pool, camera, parallel_for);
   if (ctx.techniques.bridges) add_bridges(ctx, parallel_for);
 }

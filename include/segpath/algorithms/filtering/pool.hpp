@@ -49,10 +49,23 @@ struct Pool {
   std::vector<std::uint16_t> pieces;
   std::uint64_t bridge_targets = 0;       ///< M: light-born segments with a surface x (bridges on)
   std::uint64_t next_event_segments = 0;  ///< camera-born segments drawn by light sampling
-  [[nodiscard]] std::size_t size() const noexcept { return segments.size(); }
+  [[nodiscard]] std::size_t size() const noexcept { return flags.size(); }
   [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
     return sizeof(Segment<T>) + 2 * sizeof(Vec3<T>) + 2 * sizeof(S) + 3 * sizeof(T) + 2 * sizeof(std::uint32_t) +
            2 * sizeof(std::uint16_t);
+  }
+  /// What release_geometry() frees, per segment.
+  static constexpr std::size_t geometry_bytes_per_segment = sizeof(Segment<T>) + 2 * sizeof(Vec3<T>) + sizeof(S) + sizeof(std::uint32_t);
+  /// Frees what only the drawing, the support, the densities and the transfer's set-up read:
+  /// the end points, the directions, the chain throughput and the parents (more than half of a
+  /// segment's bytes). The propagation's sweeps and the gather read the rest.
+  void release_geometry() noexcept {
+    // Moved from an empty vector: `= {}` would assign an empty list and keep the capacity.
+    segments = decltype(segments){};
+    first_direction = decltype(first_direction){};
+    last_direction = decltype(last_direction){};
+    chain = decltype(chain){};
+    parent = decltype(parent){};
   }
 };
 

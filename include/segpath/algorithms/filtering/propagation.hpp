@@ -35,6 +35,18 @@ inline constexpr std::size_t conditioned_bytes_per_segment =
     sizeof(detail::ClassJunctions<S>) + sizeof(detail::ConditionedStart<spectrum_scalar_t<S>>) + 2 * sizeof(std::uint32_t) +
     2 * sizeof(spectrum_scalar_t<S>) + sizeof(std::uint32_t) + 1;
 
+/// Of conditioned_bytes_per_segment, what propagate_conditioned_pool allocates after it freed
+/// the pool's end points (PoolGeometry::release): all but the class junctions and the light side.
+template <Spectrum S>
+inline constexpr std::size_t conditioned_bytes_after_release = conditioned_bytes_per_segment<S> - sizeof(detail::ClassJunctions<S>) -
+                                                               2 * sizeof(spectrum_scalar_t<S>) - sizeof(std::uint32_t) - 1;
+
+/// Whether a propagation over voxel clusters frees the pool's end points, directions, chain
+/// throughputs and parents (Pool::release_geometry) once it reads them no more, before its own
+/// arrays are allocated: a render does (its peak is the propagation's), a caller that reads the
+/// pool afterwards does not. Over disks the pool is always kept (the sweeps read it by segment).
+enum class PoolGeometry : std::uint8_t { keep, release };
+
 /// G(s) w(s) = G(s) / D(s) per segment (0 where no technique could draw it).
 template <Real T, Spectrum S>
 void weighted_geometry_of(const Pool<T, S>& pool, std::vector<T>& weighted_geometry) {
@@ -49,7 +61,8 @@ void weighted_geometry_of(const Pool<T, S>& pool, std::vector<T>& weighted_geome
 /// disks evaluate the transfer by segment. Returns L and G w per segment.
 template <LightSampledScene Scn, JunctionSupport J, ParallelFor P>
 void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::vector<typename Scn::Spectrum>& radiance,
-                    std::vector<typename Scn::Scalar>& weighted_geometry, const P& parallel_for) {
+                    std::vector<typename Scn::Scalar>& weighted_geometry, const P& parallel_for,
+                    PoolGeometry geometry = PoolGeometry::keep) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Scn& scene = ctx.scene;
@@ -68,6 +81,8 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
                 [&](std::size_t, std::uint32_t i, std::uint32_t j) { return link(0, 0, i, j); }, parallel_for);
     ctx.stats.transfer_cache_bytes = table.value_bytes();
     const CachedTransferLink<Scn> cached{link, table};
+    // From here the link reads the transfer's copies and the table only.
+    if (geometry == PoolGeometry::release) ctx.pool.release_geometry();
     propagate(PropagationInputs<S, CachedTransferLink<Scn>, J>{support, pool.emitted, weighted_geometry, cached, diffuse, factorised,
                                                                pool.pieces},
               iterations, radiance, workspace, parallel_for);
@@ -90,7 +105,8 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
 template <LightSampledScene Scn, class Support, ParallelFor P>
 void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const LightSide<typename Scn::Scalar>& side,
                                 int iterations, std::vector<typename Scn::Spectrum>& radiance,
-                                std::vector<typename Scn::Scalar>& geometry, const P& parallel_for) {
+                                std::vector<typename Scn::Scalar>& geometry, const P& parallel_for,
+                                PoolGeometry pool_geometry = PoolGeometry::keep) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Scn& scene = ctx.scene;
@@ -168,10 +184,16 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
         pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.density, side.flags,
         TransferLink<Scn>{scene.bsdf(), transfer}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale},
         pool.pieces};
-    // The junctions of the pairs that fit the cache budget are built once per pool.
+    // The junctions of the pairs that fit the cache budget are built once per pool. Once the
+    // factorised clusters' q_l are in, everything reads the slot-ordered copies.
+    auto by_id_done = [&] {
+      if (pool_geometry != PoolGeometry::release) return;
+      ctx.pool.release_geometry();
+      scale = std::vector<T>{};
+    };
     const ConditionedMemory memory =
         propagate_conditioned(support, slot_inputs, iterations, radiance, parallel_for, std::span<const std::uint8_t>(factorised),
-                              std::span<const S>(diffuse), ctx.options.transfer_cache_bytes);
+                              std::span<const S>(diffuse), ctx.options.transfer_cache_bytes, by_id_done);
     stats.transfer_cache_bytes = memory.junction_table;
     stats.lagged_bytes = memory.lagged;
     stats.forced_value_bytes = memory.forced_values;
