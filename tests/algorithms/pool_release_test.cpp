@@ -4,8 +4,6 @@
 // with the pool kept, bit for bit, for the paper's weighting (MVF, PhF) and the
 // path-conditioned one (BDPF), on the drawn order and on the slot order.
 #include <segpath/algorithms/segment_filtering.hpp>
-#include <segpath/testing/sphere_interior.hpp>
-#include <segpath/testing/submerged_plane.hpp>
 #include <segpath/testing/two_threads.hpp>
 
 #include <cstdint>
@@ -13,6 +11,7 @@
 #include <vector>
 
 #include "support/catch.hpp"
+#include "support/filtering_scenes.hpp"
 
 using namespace segpath;
 
@@ -75,23 +74,13 @@ std::size_t check_release(const Scn& scene, const FilteringOptions<double>& o, b
 
 TEST_CASE("the propagation frees the pool's end points when asked and gives the values it gives with them",
           "[algorithms]") {
-  // Glass and a point light: chains through the interface, kept densities, delta light ends.
-  const testing::SubmergedPlaneParameters<double> submerged{2, 0.5, 1, 1.5, 1, 0.5};
-  const testing::PointLitSubmergedPlane<double> glass(
-      submerged, {{Vec2<double>(0, 0), 0}, {Vec2<double>(0.6, 0), 0.5}, {Vec2<double>(-0.3, 0.5), -0.4}});
-  // A closed diffuse furnace seen through a pinhole: factorised clusters everywhere.
-  const testing::PhotographedSphereInterior<double> sphere(12);
+  const auto glass = testing::point_lit_glass();
+  const auto sphere = testing::sphere_furnace();
   for (const FilteringMode mode : {FilteringMode::mvf, FilteringMode::phf, FilteringMode::bdpf}) {
     for (const bool slot_order : {false, true}) {
-      FilteringOptions<double> o;
-      o.mode = mode;
-      o.max_length = 4;
-      o.light_path_ratio = 300;
-      o.initial_cell_size = 0.3;
-      o.seed = 7;
-      const std::size_t g = check_release(glass, o, slot_order, std::string("submerged plane, ") + to_string(mode));
-      o.max_length = 5;
-      o.light_path_ratio = 1;
+      const std::size_t g =
+          check_release(glass, testing::point_lit_glass_options(mode), slot_order, std::string("submerged plane, ") + to_string(mode));
+      FilteringOptions<double> o = testing::sphere_furnace_options(mode);
       const std::size_t p = check_release(sphere, o, slot_order, std::string("sphere interior, ") + to_string(mode));
       // Without the factorised sums: every cluster reads the transfer's copies.
       o.factorise = false;

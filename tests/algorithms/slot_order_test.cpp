@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "custom_technique/cosine_surface_sampler.hpp"
+#include "support/filtering_scenes.hpp"
 #include "support/catch.hpp"
 
 using namespace segpath;
@@ -117,22 +118,11 @@ Seen check_renaming(const Scn& scene, const FilteringOptions<double>& o, const s
 
 TEST_CASE("the pool in slot order is a renaming: every array, the clusters and the propagated values follow it",
           "[algorithms]") {
-  // Glass and a point light: chains through the interface, kept densities, delta light ends.
-  const testing::SubmergedPlaneParameters<double> submerged{2, 0.5, 1, 1.5, 1, 0.5};
-  const testing::PointLitSubmergedPlane<double> glass(
-      submerged, {{Vec2<double>(0, 0), 0}, {Vec2<double>(0.6, 0), 0.5}, {Vec2<double>(-0.3, 0.5), -0.4}});
-  // A closed diffuse furnace seen through a pinhole: camera paths from every pixel.
-  const testing::PhotographedSphereInterior<double> sphere(12);
+  const auto glass = testing::point_lit_glass();
+  const auto sphere = testing::sphere_furnace();
   for (const FilteringMode mode : {FilteringMode::mvf, FilteringMode::phf, FilteringMode::bdpf}) {
-    FilteringOptions<double> o;
-    o.mode = mode;
-    o.max_length = 4;
-    o.light_path_ratio = 300;
-    o.initial_cell_size = 0.3;
-    o.seed = 7;
-    const Seen g = check_renaming(glass, o, std::string("submerged plane, ") + to_string(mode));
-    o.max_length = 5;
-    o.light_path_ratio = 1;
+    const Seen g = check_renaming(glass, testing::point_lit_glass_options(mode), std::string("submerged plane, ") + to_string(mode));
+    FilteringOptions<double> o = testing::sphere_furnace_options(mode);
     o.bridges = mode == FilteringMode::bdpf;
     const Seen p = check_renaming(sphere, o, std::string("sphere interior, ") + to_string(mode));
     INFO(to_string(mode));
