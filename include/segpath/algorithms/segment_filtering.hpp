@@ -153,6 +153,7 @@ class SegmentFiltering {
                                         : stats.light_segments) += 1;
     stats.cell_size = double(cell);
 
+    const std::size_t n = std::max<std::size_t>(pool.size(), 1);  // for the bytes per segment
     std::vector<S> radiance;
     std::vector<T> weighted_geometry;
     const int iterations = int(options_.max_length) - 1;
@@ -173,11 +174,11 @@ class SegmentFiltering {
       filtering::compute_densities(ctx, clustering, parallel_for, conditioned ? &side : nullptr);
       lap(stats.densities_seconds);
       support_bytes = clustering.bytes_per_segment();
-      const std::size_t n = std::max<std::size_t>(pool.size(), 1);
       if (conditioned) {
         filtering::propagate_conditioned_pool(ctx, clustering, side, iterations, radiance, weighted_geometry, parallel_for,
                                               filtering::PoolGeometry::release);
-        propagation_bytes = filtering::conditioned_bytes_per_segment<S>;
+        // The propagation's arrays, and diffuse when factorising.
+        propagation_bytes = filtering::conditioned_bytes_per_segment<S> + (options_.factorise ? sizeof(S) : 0);
         after_release = filtering::conditioned_bytes_after_release<S> + (stats.lagged_bytes + stats.forced_value_bytes) / n;
       } else {
         filtering::propagate_pool(ctx, clustering, iterations, radiance, weighted_geometry, parallel_for,
@@ -212,10 +213,9 @@ class SegmentFiltering {
       else drops.add(DropReason::non_finite);
     }
     const std::size_t freed = std::min(Pool::geometry_bytes_per_segment, after_release);
-    const std::size_t drawing = sizeof(filtering::Record<T, S>) + pool.bytes_per_segment();  // append's records and pool
-    stats.bytes_per_segment = std::max(
-        drawing, pool.bytes_per_segment() - freed + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
-                     (pool.size() > 0 ? (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes) / pool.size() : 0));
+    const std::size_t drawing = pool.bytes_per_segment() + stats.record_bytes / n;  // append's records and pool
+    stats.bytes_per_segment = std::max(drawing, pool.bytes_per_segment() - freed + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
+                                                    (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes) / n);
     lap(stats.gather_seconds);
     return stats;
   }

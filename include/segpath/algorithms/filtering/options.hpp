@@ -134,6 +134,9 @@ struct FilteringStats {
   /// segments a junction can force, and their indices (ConditionedMemory::forced_values), for
   /// the whole pool.
   std::size_t forced_value_bytes = 0;
+  /// In bytes_per_segment: the camera and light paths' records (RecordList) when they were
+  /// pooled, for the whole pool.
+  std::size_t record_bytes = 0;
   /// Not in bytes_per_segment: what the path records' blocks held unfilled when they were pooled
   /// (about one block per generator's list, whatever the pool's size).
   std::size_t record_slack_bytes = 0;
@@ -155,6 +158,7 @@ struct FilteringStats {
     propagation_copy_bytes = std::max(propagation_copy_bytes, p.propagation_copy_bytes);
     lagged_bytes = std::max(lagged_bytes, p.lagged_bytes);
     forced_value_bytes = std::max(forced_value_bytes, p.forced_value_bytes);
+    record_bytes = std::max(record_bytes, p.record_bytes);
     record_slack_bytes = std::max(record_slack_bytes, p.record_slack_bytes);
     paths_seconds += p.paths_seconds, support_seconds += p.support_seconds, densities_seconds += p.densities_seconds;
     propagation_seconds += p.propagation_seconds, gather_seconds += p.gather_seconds;

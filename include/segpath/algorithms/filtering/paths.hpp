@@ -26,17 +26,16 @@ namespace segpath::filtering {
 /// Path generators draw in this many chunks (the pool is the same whatever the thread count).
 inline constexpr std::size_t path_chunks = 64;
 
-/// The next-event segment of the camera technique point y of `out[source]`: a light point
-/// from sample_towards(y), kept when visible. A failed draw is still a technique sample (the
-/// density counts every camera technique point).
+/// The next-event segment of the camera technique point x, the y end of record `source` of
+/// `out`: a light point from sample_towards(x), kept when visible. A failed draw is still a
+/// technique sample (the density counts every camera technique point).
 template <LightSampledScene Scn, class R>
-void add_next_event(const Scn& scene, std::uint32_t source, R& rng,
+void add_next_event(const Scn& scene, std::uint32_t source, const SurfacePoint<typename Scn::Scalar>& x, R& rng,
                     RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Vec2<T> u = uniform2<T>(rng);
   const T u_select = rng.template uniform<T>();
-  const SurfacePoint<T> x = out[source].segment.y;
   const auto e = scene.emitter().sample_towards(EmitterTowardsQuery<T>{x, u, u_select});
   if (!e || !(e->pdf > T(0)) || !std::isfinite(e->pdf)) return;
   Record<T, S> r;
@@ -124,7 +123,7 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
                            (continuation >= T(1) || rng.template uniform<T>() < continuation);
     const auto index = std::uint32_t(out.size());
     out.push_back(r);
-    if (attempted && ctx.techniques.next_event) add_next_event(scene, index, rng, out);
+    if (attempted && ctx.techniques.next_event) add_next_event(scene, index, r.segment.y, rng, out);
     if (!continues) return;
     // The approximate successor (N33): starts exactly at y, direction from the BSDF at y.
     const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{y.position, next->direction}});
@@ -298,7 +297,10 @@ void draw_paths(Context<Scn>& ctx, const P& parallel_for) {
     for (std::uint64_t l = l0; l < l1; ++l) trace_light_path(ctx, l, light[c]);
   });
   camera.insert(camera.end(), std::make_move_iterator(light.begin()), std::make_move_iterator(light.end()));
-  for (const RecordList<T, S>& list : camera) ctx.stats.record_slack_bytes += list.capacity_bytes() - list.size() * sizeof(Record<T, S>);
+  for (const RecordList<T, S>& list : camera) {
+    ctx.stats.record_bytes += list.capacity_bytes() - list.unfilled_bytes();
+    ctx.stats.record_slack_bytes += list.unfilled_bytes();
+  }
   append(pool, camera, parallel_for);
   if (ctx.techniques.bridges) add_bridges(ctx, parallel_for);
 }

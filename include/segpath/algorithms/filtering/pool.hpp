@@ -14,21 +14,6 @@
 
 namespace segpath::filtering {
 
-/// What a pooled segment is (Pool::flags).
-enum PoolFlag : std::uint16_t {
-  sensor_segment = 1,       ///< s_1 of a camera path
-  camera_born = 2,          ///< drawn by the camera side
-  chain_segment = 4,        ///< contains delta vertices: (area x, solid angle x) measure
-  camera_technique = 8,     ///< a camera successor draw was attempted from it
-  light_technique = 16,     ///< a light predecessor draw was attempted from it
-  light_start = 32,         ///< drawn by the light-start sampler
-  delta_light = 64,         ///< its light end is a Dirac (point light, sun): only light sampling draws it
-  bridge_segment = 128,     ///< drawn by the bridge technique
-  transmission_chain = 256, ///< a chain through a delta transmission
-  extra_technique = 512,    ///< drawn by a technique of the user's list (FilteringTechnique)
-  kept_density = 1024,      ///< a chain only its light start draws (kept_chain): its D is the draw's, Record::density
-};
-
 /// One iteration's segments, structure of arrays (memory O(#segments)). Drawn in path order;
 /// on voxels with the path-conditioned weighting renumbered after the clustering
 /// (slot_order.hpp: an array added here must be renumbered there too).
@@ -83,9 +68,10 @@ void append(Pool<T, S>& pool, const std::vector<RecordList<T, S>>& chunks, const
   std::vector<std::uint64_t> next_event(chunks.size(), 0);
   parallel_for(chunks.size(), [&](std::size_t c) {
     std::size_t i = base[c];
-    for (std::size_t k = 0; k < chunks[c].size(); ++k) {
-      const Record<T, S>& r = chunks[c][k];
-      pool.segments[i] = r.segment;
+    // A parent precedes its children in its list: its segment is in the pool already.
+    const auto segment_of = [&](std::uint32_t parent) -> const Segment<T>& { return pool.segments[base[c] + parent]; };
+    chunks[c].unpack(segment_of, [&](const RecordFields<T, S>& r, const Segment<T>& segment) {
+      pool.segments[i] = segment;
       pool.first_direction[i] = r.first_direction;
       pool.last_direction[i] = r.last_direction;
       pool.chain[i] = r.chain;
@@ -98,7 +84,7 @@ void append(Pool<T, S>& pool, const std::vector<RecordList<T, S>>& chunks, const
       pool.pieces[i] = r.pieces;
       next_event[c] += r.next_event ? 1 : 0;
       ++i;
-    }
+    });
   });
   for (const auto n : next_event) pool.next_event_segments += n;
 }
