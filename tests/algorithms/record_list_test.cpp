@@ -55,7 +55,8 @@ TEST_CASE("a record list restores the end a record shares with its parent", "[al
   std::vector<Segment<float>> pooled;
   std::size_t k = 0, mismatches = 0;
   list.unpack([&](std::uint32_t parent) -> const Segment<float>& { return pooled.at(parent); },
-              [&](const RecordFields<float, Rgb<float>>& f, const Segment<float>& segment) {
+              [&](const RecordFields<float, Rgb<float>>& f, const SurfacePoint<float>& x, const SurfacePoint<float>& y) {
+                const Segment<float> segment{x, y};
                 const auto& r = drawn.at(k++);
                 mismatches += !(same(segment.x, r.segment.x) && same(segment.y, r.segment.y) &&
                                 f.first_direction == r.first_direction && f.last_direction == r.last_direction &&

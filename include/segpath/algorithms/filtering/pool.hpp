@@ -70,8 +70,9 @@ void append(Pool<T, S>& pool, const std::vector<RecordList<T, S>>& chunks, const
     std::size_t i = base[c];
     // A parent precedes its children in its list: its segment is in the pool already.
     const auto segment_of = [&](std::uint32_t parent) -> const Segment<T>& { return pool.segments[base[c] + parent]; };
-    chunks[c].unpack(segment_of, [&](const RecordFields<T, S>& r, const Segment<T>& segment) {
-      pool.segments[i] = segment;
+    chunks[c].unpack(segment_of, [&](const RecordFields<T, S>& r, const SurfacePoint<T>& x, const SurfacePoint<T>& y) {
+      pool.segments[i].x = x;
+      pool.segments[i].y = y;
       pool.first_direction[i] = r.first_direction;
       pool.last_direction[i] = r.last_direction;
       pool.chain[i] = r.chain;

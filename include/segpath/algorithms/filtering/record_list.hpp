@@ -88,7 +88,7 @@ class RecordList {
     return capacity_bytes() - fields_.size() * sizeof(RecordFields<T, S>) - ends_.size() * sizeof(SurfacePoint<T>);
   }
 
-  /// f(fields, segment) for every record in order, its segment whole: an end the record does not
+  /// f(fields, x, y) for every record in order, with both its ends: an end the record does not
   /// hold is read from `segment_of(parent)`, the segment its parent (an earlier record) became.
   template <class SegmentOf, class F>
   void unpack(const SegmentOf& segment_of, F&& f) const {
@@ -96,12 +96,12 @@ class RecordList {
     for (std::size_t k = 0; k < fields_.size(); ++k) {
       const RecordFields<T, S>& r = fields_[k];
       if (r.parent == no_parent) {
-        f(r, Segment<T>{ends_[e], ends_[e + 1]});
+        f(r, ends_[e], ends_[e + 1]);
         e += 2;
       } else if (starts_at_parent(r.flags)) {
-        f(r, Segment<T>{segment_of(r.parent).y, ends_[e++]});
+        f(r, segment_of(r.parent).y, ends_[e++]);
       } else {
-        f(r, Segment<T>{ends_[e++], segment_of(r.parent).x});
+        f(r, ends_[e++], segment_of(r.parent).x);
       }
     }
   }
