@@ -297,11 +297,19 @@ void draw_paths(Context<Scn>& ctx, const P& parallel_for) {
     for (std::uint64_t l = l0; l < l1; ++l) trace_light_path(ctx, l, light[c]);
   });
   camera.insert(camera.end(), std::make_move_iterator(light.begin()), std::make_move_iterator(light.end()));
+  std::size_t records = 0, bridge_sources = 0;
   for (const RecordList<T, S>& list : camera) {
     ctx.stats.record_bytes += list.capacity_bytes() - list.unfilled_bytes();
     ctx.stats.record_slack_bytes += list.unfilled_bytes();
+    records += list.size();
+    if (ctx.techniques.bridges) bridge_sources += list.count(camera_technique);
   }
+  // Room for the bridges too (one per camera technique point at most): their append then moves
+  // no array, which would leave the old ones as holes the later stages' arrays do not fit.
+  pool.reserve(pool.size() + records + bridge_sources);
   append(pool, camera, parallel_for);
+  // The records are in the pool: freed before the bridges' draw grows it.
+  std::vector<RecordList<T, S>>().swap(camera);
   if (ctx.techniques.bridges) add_bridges(ctx, parallel_for);
 }
 

@@ -39,6 +39,11 @@ struct Pool {
     return sizeof(Segment<T>) + 2 * sizeof(Vec3<T>) + 2 * sizeof(S) + 3 * sizeof(T) + 2 * sizeof(std::uint32_t) +
            2 * sizeof(std::uint16_t);
   }
+  /// Room for n segments in every array append fills: appends up to n then move nothing.
+  void reserve(std::size_t n) {
+    segments.reserve(n), first_direction.reserve(n), last_direction.reserve(n), chain.reserve(n), geometry.reserve(n);
+    sensor_weight.reserve(n), pixel.reserve(n), density.reserve(n), parent.reserve(n), flags.reserve(n), pieces.reserve(n);
+  }
   /// What release_geometry() frees, per segment.
   static constexpr std::size_t geometry_bytes_per_segment = sizeof(Segment<T>) + 2 * sizeof(Vec3<T>) + sizeof(S) + sizeof(std::uint32_t);
   /// Frees what only the drawing, the support, the densities and the transfer's set-up read:

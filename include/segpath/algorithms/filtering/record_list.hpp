@@ -82,6 +82,12 @@ class RecordList {
     }
   }
   [[nodiscard]] std::size_t size() const noexcept { return fields_.size(); }
+  /// The records whose flags have every bit of `flag`.
+  [[nodiscard]] std::size_t count(std::uint16_t flag) const noexcept {
+    std::size_t n = 0;
+    for (std::size_t k = 0; k < fields_.size(); ++k) n += (fields_[k].flags & flag) == flag ? 1 : 0;
+    return n;
+  }
   /// Bytes of the blocks held, and of those the records do not fill.
   [[nodiscard]] std::size_t capacity_bytes() const noexcept { return fields_.capacity_bytes() + ends_.capacity_bytes(); }
   [[nodiscard]] std::size_t unfilled_bytes() const noexcept {
