@@ -289,10 +289,10 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         for (std::uint32_t i = ending.begin; i < ending.end; ++i) {
           const T ql = representative == no_cluster ? T(0) : T(in.light_pair(ending_segment[i], representative));
           const S transfer = diffuse[ending_segment[i]] * support.kernel(g);
+          const auto end_i = detail::conditioned_end(in, ending_segment[i]);
           for (int k_class = 0; k_class < 3; ++k_class)
             class_junction[class_offset[g] + (i - ending.begin)].set(
-                k_class, detail::conditioned_coefficients(detail::conditioned_end(in, ending_segment[i]), class_flags[k_class], T(1),
-                                                          transfer, k_class > 0 ? ql : T(0)));
+                k_class, detail::conditioned_coefficients(end_i, class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0)));
         }
       });
     }
