@@ -689,6 +689,7 @@ TEST_CASE("BDPF's path-conditioned weighting is exact in the sparse slab furnace
 // A sampler written outside the library (examples/custom_technique/) joins the technique set:
 // its segments are pooled, and N_u p_u(s), written out here from its definition, enters the
 // denominator of every pooled segment it could have drawn, whatever the method and support.
+// Its draws are reserved in the pool with the paths', so its append moves no array.
 TEST_CASE("a user's own technique joins the technique set: its density enters every denominator", "[algorithms]") {
   using Scn = PhotographedSlab<double>;
   using Cosine = example::CosineSurfaceSampler<Scn>;
@@ -731,6 +732,11 @@ TEST_CASE("a user's own technique joins the technique set: its density enters ev
       INFO(to_string(mode) << ", " << to_string(support) << ", pass " << pass << " of " << passes << ": " << extras
                            << " segments of the user's technique");
       CHECK(extras > 50);
+      // Its draws were reserved with the paths' (draw_paths): its append moved no array.
+      // Grown instead, a vector doubles its capacity.
+      const auto reserved = std::size_t(pool.size() - extras + draws);
+      CHECK(pool.segments.capacity() <= reserved);
+      CHECK(pool.flags.capacity() <= reserved);
       std::pair<std::size_t, std::size_t> checked;
       if (support == FilteringSupport::voxel) {
         Clustering<double> clustering;

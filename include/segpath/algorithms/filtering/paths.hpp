@@ -281,9 +281,10 @@ void add_bridges(Context<Scn>& ctx, const P& parallel_for) {
 
 /// Step 1: the camera and light paths of an iteration, pooled (camera paths in pixel
 /// order, then light paths in index order), then the bridges; finish_pool completes the pool
-/// once every technique has drawn.
+/// once every technique has drawn. `later_draws`: how many segments the techniques that draw
+/// after the paths (the user's, draw_extra) may add, reserved with the paths' and bridges'.
 template <LightSampledScene Scn, ParallelFor P>
-void draw_paths(Context<Scn>& ctx, const P& parallel_for) {
+void draw_paths(Context<Scn>& ctx, const P& parallel_for, std::size_t later_draws = 0) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   auto& pool = ctx.pool;
@@ -304,9 +305,10 @@ void draw_paths(Context<Scn>& ctx, const P& parallel_for) {
     records += list.size();
     if (ctx.techniques.bridges) bridge_sources += list.count(camera_technique);
   }
-  // Room for the bridges too (one per camera technique point at most): their append then moves
-  // no array, which would leave the old ones as holes the later stages' arrays do not fit.
-  pool.reserve(pool.size() + records + bridge_sources);
+  // Room for the bridges (one per camera technique point at most) and the later draws too:
+  // their appends then move no array, which would leave the old ones as holes the later
+  // stages' arrays do not fit, and hold both copies at once while it moves.
+  pool.reserve(pool.size() + records + bridge_sources + later_draws);
   append(pool, camera, parallel_for);
   // The records are in the pool: freed before the bridges' draw grows it.
   std::vector<RecordList<T, S>>().swap(camera);
