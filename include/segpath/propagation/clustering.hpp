@@ -99,7 +99,8 @@ std::span<E> radix_sort(std::span<E> data, std::span<E> scratch, unsigned lo, un
 
 /// The clusters of one iteration, a JunctionSupport (propagation/junction_support.hpp) whose
 /// groups are the clusters. Memory: three ids per segment and one per slot, O(#segments);
-/// during build only, one EndpointRef and two 8-byte codes per endpoint (the sort's), the refs
+/// during build only, per endpoint an EndpointRef and an 8-byte code, or the radix sort's two
+/// codes (the refs are freed while it runs, and its scratch before they are decoded), the refs
 /// kept after it only on request (keep_refs, for inspection). Deterministic: the sort order is a total order, and the
 /// parallel steps write disjoint outputs.
 template <Real T>
@@ -318,13 +319,17 @@ class Clustering {
     const std::size_t decode_chunks = (count + ref_chunk - 1) / ref_chunk;
     if (code_bits + segment_bits <= 64) {
       // The segment in the low bits: one 64-bit word per ref, sorted on its code bits.
-      const auto codes = std::make_unique_for_overwrite<std::uint64_t[]>(count);
-      const auto scratch = std::make_unique_for_overwrite<std::uint64_t[]>(count);
+      auto codes = std::make_unique_for_overwrite<std::uint64_t[]>(count);
       gather_codes(
           parallel_for, [&](const EndpointRef& r) { return code_of(r) << segment_bits | r.segment; }, codes.get());
+      // The refs are rebuilt from the sorted codes: freed while the sort runs, and the buffer
+      // that does not hold the result freed before they are (the peak of a render is here).
+      std::vector<EndpointRef>().swap(refs_);
+      auto scratch = std::make_unique_for_overwrite<std::uint64_t[]>(count);
       const auto sorted =
           detail::radix_sort(std::span<std::uint64_t>(codes.get(), count), std::span<std::uint64_t>(scratch.get(), count),
                              segment_bits, code_bits, [](std::uint64_t w) { return w; }, counts_);
+      if (sorted.data() == codes.get()) scratch.reset(); else codes.reset();
       const std::uint64_t segment_mask = (std::uint64_t(1) << segment_bits) - 1;
       refs_.resize(count);
       parallel_for(decode_chunks, [&](std::size_t c) {
