@@ -98,7 +98,8 @@ class SegmentFiltering {
   template <ParallelFor P = SerialFor>
   void build_pool(Context& ctx, const P& parallel_for = {}) const {
     // Each draw of a user technique pools one segment at most.
-    const std::size_t later_draws = std::apply([&](const auto&... t) { return (std::size_t(0) + ... + filtering::draw_count(t, ctx)); }, extra_);
+    const std::size_t later_draws = std::apply(
+        [&](const auto&... t) { return (std::size_t(0) + ... + filtering::draw_count(t, ctx)); }, extra_);
     filtering::draw_paths(ctx, parallel_for, later_draws);
     std::uint64_t k = 0;
     std::apply([&](const auto&... t) { (filtering::draw_extra(ctx, t, k++, parallel_for), ...); }, extra_);

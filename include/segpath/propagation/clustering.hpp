@@ -323,7 +323,8 @@ class Clustering {
       gather_codes(
           parallel_for, [&](const EndpointRef& r) { return code_of(r) << segment_bits | r.segment; }, codes.get());
       // The refs are rebuilt from the sorted codes: freed while the sort runs, and the buffer
-      // that does not hold the result freed before they are (the peak of a render is here).
+      // that does not hold the result freed before they are (a BDPF render peaks in this stage
+      // on some scenes: docs/figures.md, session 38).
       std::vector<EndpointRef>().swap(refs_);
       auto scratch = std::make_unique_for_overwrite<std::uint64_t[]>(count);
       const auto sorted =
