@@ -183,6 +183,13 @@ TEMPLATE_TEST_CASE("slots number each end's refs in cluster order", "[propagatio
   CHECK(lean.ending_slot_count() == clustering.ending_slot_count());
   CHECK(std::ranges::equal(lean.starting_segments(), clustering.starting_segments()));
   CHECK(std::ranges::equal(lean.ending_segments(), clustering.ending_segments()));
+  // The build's peak: at least what it keeps, and when the sort's codes are gathered its three
+  // lookups, every end's ref and the valid refs' 8-byte codes.
+  REQUIRE(lean.last_sort() == EndpointSort::radix);
+  const std::size_t n = segments.size(), valid_refs = lean.starting_slot_count() + lean.ending_slot_count();
+  const std::size_t gathering = 3 * n * sizeof(std::uint32_t) + 2 * n * sizeof(EndpointRef) + valid_refs * sizeof(std::uint64_t);
+  CHECK(lean.build_peak_bytes_per_segment() >= lean.bytes_per_segment());
+  CHECK(lean.build_peak_bytes_per_segment() >= gathering / n);
 }
 
 TEMPLATE_TEST_CASE("radix-sorted clusters equal std::sort's, with 1 or 2 threads", "[propagation]", float, double) {

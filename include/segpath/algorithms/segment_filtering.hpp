@@ -163,6 +163,7 @@ class SegmentFiltering {
     // after_release: what the propagation allocates per segment after it freed the pool's end
     // points (PoolGeometry::release; voxels only): the peak is the larger of before and after.
     std::size_t support_bytes = 0, propagation_bytes = 0, after_release = 0;
+    std::size_t support_stage = 0;  // the support stage's own peak, the pool included (voxels)
     filtering::LightSide<T> side;
     const bool conditioned = path_conditioned(options_);
     if (options_.support == FilteringSupport::voxel) {
@@ -177,6 +178,8 @@ class SegmentFiltering {
       filtering::compute_densities(ctx, clustering, parallel_for, conditioned ? &side : nullptr);
       lap(stats.densities_seconds);
       support_bytes = clustering.bytes_per_segment();
+      support_stage = pool.bytes_per_segment() + (conditioned ? filtering::slot_order_bytes_per_segment<T> : 0) +
+                      clustering.build_peak_bytes_per_segment();
       if (conditioned) {
         filtering::propagate_conditioned_pool(ctx, clustering, side, iterations, radiance, weighted_geometry, parallel_for,
                                               filtering::PoolGeometry::release);
@@ -217,8 +220,9 @@ class SegmentFiltering {
     }
     const std::size_t freed = std::min(Pool::geometry_bytes_per_segment, after_release);
     const std::size_t drawing = pool.bytes_per_segment() + stats.record_bytes / n;  // append's records and pool
-    stats.bytes_per_segment = std::max(drawing, pool.bytes_per_segment() - freed + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
-                                                    (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes) / n);
+    stats.bytes_per_segment = std::max({drawing, support_stage,
+                                        pool.bytes_per_segment() - freed + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
+                                            (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes) / n});
     lap(stats.gather_seconds);
     return stats;
   }

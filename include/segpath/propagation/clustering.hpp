@@ -129,10 +129,13 @@ class Clustering {
     cluster_of_x_.assign(n, no_cluster);
     cluster_of_y_.assign(n, no_cluster);
     ending_slot_of_.assign(n, no_cluster);
+    build_peak_bytes_ = 0;
     compute_keys(grid, segments, canonical, parallel_for);
+    note_peak();
     sort_refs(parallel_for);
     cut_clusters();
     fill_clusters(grid, segments, canonical, parallel_for);
+    note_peak();
     // The slots hold the refs' segments in the same order; only their keys and ends are lost.
     if (!keep_refs_) std::vector<EndpointRef>().swap(refs_);
   }
@@ -224,15 +227,24 @@ class Clustering {
     for (EndpointRef& r : refs_) r.segment = new_of_old[r.segment];
   }
 
+  /// What the clustering holds per segment.
   [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
-    if (cluster_of_x_.empty()) return 0;
-    return (refs_.capacity() * sizeof(EndpointRef) + clusters_.capacity() * sizeof(Cluster<T>) +
-            (3 * cluster_of_x_.capacity() + starting_segment_.capacity() + ending_segment_.capacity()) *
-                sizeof(std::uint32_t)) /
-           cluster_of_x_.size();
+    return cluster_of_x_.empty() ? 0 : held_bytes() / cluster_of_x_.size();
+  }
+  /// The most the last build held per segment at once, its temporaries included (the endpoint
+  /// refs and the sort's buffers): the support stage's share of a render's peak.
+  [[nodiscard]] std::size_t build_peak_bytes_per_segment() const noexcept {
+    return cluster_of_x_.empty() ? 0 : build_peak_bytes_ / cluster_of_x_.size();
   }
 
  private:
+  [[nodiscard]] std::size_t held_bytes() const noexcept {
+    return refs_.capacity() * sizeof(EndpointRef) + clusters_.capacity() * sizeof(Cluster<T>) +
+           (3 * cluster_of_x_.capacity() + starting_segment_.capacity() + ending_segment_.capacity()) * sizeof(std::uint32_t);
+  }
+  /// Records what is held now, with `temporaries` bytes besides (build_peak_bytes_per_segment).
+  void note_peak(std::size_t temporaries = 0) noexcept { build_peak_bytes_ = std::max(build_peak_bytes_, held_bytes() + temporaries); }
+
   /// Segments per task when computing keys, refs per task when decoding, clusters per task.
   static constexpr std::size_t segment_chunk = 16384, ref_chunk = 32768, cluster_chunk = 8192;
   static constexpr std::uint8_t invalid_end = 2;
@@ -322,17 +334,20 @@ class Clustering {
       auto codes = std::make_unique_for_overwrite<std::uint64_t[]>(count);
       gather_codes(
           parallel_for, [&](const EndpointRef& r) { return code_of(r) << segment_bits | r.segment; }, codes.get());
+      note_peak(count * sizeof(std::uint64_t));
       // The refs are rebuilt from the sorted codes: freed while the sort runs, and the buffer
       // that does not hold the result freed before they are (a BDPF render peaks in this stage
       // on some scenes: docs/figures.md, session 38).
       std::vector<EndpointRef>().swap(refs_);
       auto scratch = std::make_unique_for_overwrite<std::uint64_t[]>(count);
+      note_peak(2 * count * sizeof(std::uint64_t));
       const auto sorted =
           detail::radix_sort(std::span<std::uint64_t>(codes.get(), count), std::span<std::uint64_t>(scratch.get(), count),
                              segment_bits, code_bits, [](std::uint64_t w) { return w; }, counts_);
       if (sorted.data() == codes.get()) scratch.reset(); else codes.reset();
       const std::uint64_t segment_mask = (std::uint64_t(1) << segment_bits) - 1;
       refs_.resize(count);
+      note_peak(count * sizeof(std::uint64_t));
       parallel_for(decode_chunks, [&](std::size_t c) {
         const std::size_t e = std::min(count, (c + 1) * ref_chunk);
         for (std::size_t i = c * ref_chunk; i < e; ++i)
@@ -342,6 +357,7 @@ class Clustering {
       const auto codes = std::make_unique_for_overwrite<WideCode[]>(count);
       const auto scratch = std::make_unique_for_overwrite<WideCode[]>(count);
       gather_codes(parallel_for, [&](const EndpointRef& r) { return WideCode{code_of(r), r.segment}; }, codes.get());
+      note_peak(2 * count * sizeof(WideCode));
       const auto sorted =
           detail::radix_sort(std::span<WideCode>(codes.get(), count), std::span<WideCode>(scratch.get(), count), 0,
                              code_bits, [](const WideCode& w) { return w.code; }, counts_);
@@ -438,6 +454,7 @@ class Clustering {
   std::vector<std::uint32_t> starting_segment_, ending_segment_;
   std::vector<ChunkKeys> chunks_;
   std::vector<std::uint32_t> counts_;
+  std::size_t build_peak_bytes_ = 0;
   bool force_comparison_ = false, keep_refs_ = false;
   EndpointSort last_sort_ = EndpointSort::radix;
 };

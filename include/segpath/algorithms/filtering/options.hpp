@@ -119,9 +119,10 @@ struct FilteringStats {
   std::uint64_t factorised_camera_clusters = 0, factorised_light_clusters = 0, factorised_transfer_clusters = 0;
   std::uint64_t pair_evaluations = 0;  ///< technique-density and transfer evaluations
   double cell_size = 0;
-  /// O(#segments) memory at the iteration's peak, without the transfer cache: the larger of the
-  /// drawing's (the path records and the pool they are copied into) and the propagation's (on
-  /// voxels it frees the pool's end points first: filtering::PoolGeometry).
+  /// O(#segments) memory at the iteration's peak, without the transfer cache: the largest of the
+  /// drawing's (the path records and the pool they are copied into), the support's on voxels (the
+  /// pool, the clustering's build and the renumbering's buffer: slot_order.hpp) and the
+  /// propagation's (on voxels it frees the pool's end points first: filtering::PoolGeometry).
   std::size_t bytes_per_segment = 0;
   std::size_t transfer_cache_bytes = 0;  ///< FilteringOptions::transfer_cache_bytes at most
   /// In bytes_per_segment: what the propagation copied into slot order for the clusters it

@@ -88,6 +88,13 @@ void order_by_slot(Context<Scn>& ctx, Clustering<typename Scn::Scalar>& clusteri
   clustering.renumber(new_of_old, parallel_for);
 }
 
+/// What cluster_in_slot_order holds per segment besides the pool and the clustering's build
+/// (Clustering::build_peak_bytes_per_segment): gather_segments_by's buffer, taken before the
+/// build. The renumbering's other arrays (its two index maps, one array's gather, the
+/// clustering's three lookups) come after the build's refs are freed and hold less than they did.
+template <Real T>
+inline constexpr std::size_t slot_order_bytes_per_segment = sizeof(SurfacePoint<T>);
+
 /// The pool's clusters on `grid` (cluster), then the pool in their slot order (order_by_slot).
 template <LightSampledScene Scn, ParallelFor P>
 void cluster_in_slot_order(Context<Scn>& ctx, const VoxelGrid<typename Scn::Scalar>& grid,
