@@ -324,3 +324,39 @@ TEST_CASE("a pair table holds the groups that fit its budget, in group order, an
   CHECK(*table.find(4, 7) == 2047);
   CHECK(table.value_bytes() == 6 * sizeof(int));
 }
+
+TEST_CASE("a pair table holds its values in blocks of whole groups, found across every block", "[propagation]") {
+  // Groups of 1000 x 600 pairs fill blocks of block_bytes (1 Mi ints) one at a time; one of
+  // 1100 x 1000 pairs is larger than a block and has one of its own.
+  constexpr std::uint32_t per_block = PairTable<int>::block_bytes / sizeof(int);
+  const std::vector<std::pair<std::uint32_t, std::uint32_t>> shape{{1000, 600}, {1000, 600}, {1100, 1000}, {1000, 600}, {3, 2}};
+  ListSupport<true> support;
+  std::uint32_t ends = 0, starts = 0;
+  for (const auto& [e, st] : shape) {
+    support.ending.push_back({ends, ends + e});
+    support.starting.push_back({starts, starts + st});
+    support.kernels.push_back(1);
+    ends += e, starts += st;
+  }
+  REQUIRE(std::size_t(1100) * 1000 > per_block);
+  REQUIRE(std::size_t(2) * 1000 * 600 > per_block);
+  for (std::uint32_t i = 0; i < ends; ++i) support.ending_segment.push_back(i), support.slot_of.push_back(i);
+  for (std::uint32_t j = 0; j < starts; ++j) support.starting_segment.push_back(j % ends);
+  support.segments = ends;
+  auto pair = [](std::size_t g, std::uint32_t i, std::uint32_t j) { return int(g << 28 | std::size_t(i) << 12 | j); };
+  PairTable<int> table;
+  table.build(support, std::size_t(1) << 30, {}, pair, segpath::testing::TwoThreadFor{});
+  // [600k], [600k], [1.1M], [600k + 6]: the last group joins the block before it.
+  CHECK(table.block_count() == 4);
+  std::size_t pairs = 0, wrong = 0;
+  for (std::size_t g = 0; g < shape.size(); ++g)
+    for (std::uint32_t i = support.ending[g].begin; i < support.ending[g].end; ++i) {
+      const int* row = table.row(i, support.starting[g].begin);
+      for (std::uint32_t j = support.starting[g].begin; j < support.starting[g].end; ++j, ++pairs) {
+        const int* found = table.find(i, j);
+        wrong += found == nullptr || *found != pair(g, i, j) || found != row + (j - support.starting[g].begin);
+      }
+    }
+  CHECK(pairs == table.size());
+  CHECK(wrong == 0);
+}
