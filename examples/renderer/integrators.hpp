@@ -443,16 +443,18 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
   static void print(std::uint64_t iteration, const segpath::FilteringStats& f) {
     std::fprintf(stderr,
                  "iteration %llu: %llu segments (camera %llu, light %llu, bridge %llu, next-event %llu), %llu clusters, "
-                 "%llu factorised, %llu pair evaluations, cell %.4g, %zu B/segment besides the cache, cache %.1f MiB (%zu B/segment); seconds: paths %.3f, support %.3f, "
-                 "densities %.3f, propagation %.3f, gather %.3f%s\n",
+                 "%llu factorised, %llu pair evaluations, cell %.4g, %zu B/segment besides the cache, "
+                 "cache %.1f MiB (%zu B/segment); seconds: paths %.3f, support %.3f, densities %.3f, "
+                 "propagation %.3f, gather %.3f%s\n",
                  static_cast<unsigned long long>(iteration + 1), static_cast<unsigned long long>(f.segments),
                  static_cast<unsigned long long>(f.camera_segments), static_cast<unsigned long long>(f.light_segments),
                  static_cast<unsigned long long>(f.bridge_segments), static_cast<unsigned long long>(f.next_event_segments),
                  static_cast<unsigned long long>(f.clusters ? f.clusters : f.junctions),
                  static_cast<unsigned long long>(f.factorised_transfer_clusters),
                  static_cast<unsigned long long>(f.pair_evaluations), f.cell_size, f.bytes_per_segment,
-                 double(f.transfer_cache_bytes) / double(1 << 20), f.transfer_cache_bytes / std::max<std::size_t>(f.segments, 1), f.paths_seconds, f.support_seconds, f.densities_seconds,
-                 f.propagation_seconds, f.gather_seconds,
+                 double(f.transfer_cache_bytes) / double(1 << 20),
+                 f.transfer_cache_bytes / std::max<std::size_t>(f.segments, 1), f.paths_seconds, f.support_seconds,
+                 f.densities_seconds, f.propagation_seconds, f.gather_seconds,
                  f.passes > 1 ? ("; " + std::to_string(f.passes) + " passes (memory: the largest)").c_str() : "");
   }
   bool print_stats_ = false;

@@ -220,9 +220,10 @@ class SegmentFiltering {
     }
     const std::size_t freed = std::min(Pool::geometry_bytes_per_segment, after_release);
     const std::size_t drawing = pool.bytes_per_segment() + stats.record_bytes / n;  // append's records and pool
-    stats.bytes_per_segment = std::max({drawing, support_stage,
-                                        pool.bytes_per_segment() - freed + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
-                                            (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes) / n});
+    const std::size_t propagation_stage =
+        pool.bytes_per_segment() - freed + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
+        (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes) / n;
+    stats.bytes_per_segment = std::max({drawing, support_stage, propagation_stage});
     lap(stats.gather_seconds);
     return stats;
   }

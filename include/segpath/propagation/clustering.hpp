@@ -243,7 +243,9 @@ class Clustering {
            (3 * cluster_of_x_.capacity() + starting_segment_.capacity() + ending_segment_.capacity()) * sizeof(std::uint32_t);
   }
   /// Records what is held now, with `temporaries` bytes besides (build_peak_bytes_per_segment).
-  void note_peak(std::size_t temporaries = 0) noexcept { build_peak_bytes_ = std::max(build_peak_bytes_, held_bytes() + temporaries); }
+  void note_peak(std::size_t temporaries = 0) noexcept {
+    build_peak_bytes_ = std::max(build_peak_bytes_, held_bytes() + temporaries);
+  }
 
   /// Segments per task when computing keys, refs per task when decoding, clusters per task.
   static constexpr std::size_t segment_chunk = 16384, ref_chunk = 32768, cluster_chunk = 8192;
