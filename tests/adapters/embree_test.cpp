@@ -726,6 +726,11 @@ TraversalQueries<T> traversal_queries(const EmbreeManifold<T>& m, const Vec3<T>&
       const Vec3<T> d = o == inner ? square_to_uniform_sphere(rng.uniform2<T>()) : cosine_direction<T>(side * a->point.normal, rng);
       q.closest.push_back({Ray<T>{o, d}, i % 3 ? std::numeric_limits<T>::infinity() : T(0.5)});
     }
+    // Along an axis (the other components exactly 0): the direct traversal's box tests divide
+    // by each component.
+    Vec3<T> axis(0);
+    axis[i % 3] = i % 2 ? T(1) : T(-1);
+    q.closest.push_back({Ray<T>{inner, axis}, std::numeric_limits<T>::infinity()});
     q.pairs.emplace_back(a->point, b->point);
     const auto sky = SurfacePoint<T>{square_to_uniform_sphere(rng.uniform2<T>()), {0, 0, 1}, {0, 0, 1}, invalid_id, invalid_id,
                                      PointKind::direction};

@@ -2,7 +2,8 @@
 // tested directly, in double, with the same exact tests the callbacks apply to Embree's
 // candidates (exact_callbacks.hpp). At that size a closest hit and a visibility query together
 // cost less than through Embree's traversal, whose per-ray set-up and indirect callbacks a tiny
-// BVH does not repay (docs/figures.md).
+// BVH does not repay (docs/figures.md). Consecutive triangles that stay within a small box (a
+// light fixture, an object's mesh) are skipped by one box test where a ray misses that box.
 #pragma once
 
 #include "segpath/adapters/embree/exact_callbacks.hpp"
@@ -17,6 +18,14 @@
 #include <vector>
 
 namespace segpath::detail {
+
+/// Triangles are tested in chunks of this many: a chunk's distances are computed by one loop
+/// without a branch or a carried dependency (which the compiler vectorises), then compared.
+inline constexpr std::size_t brute_force_chunk = 32;
+
+/// Runs of triangles are padded to a multiple of this many (AVX2's double lanes) with entries
+/// that no query hits, so that a chunk has no remainder to test one by one.
+inline constexpr std::size_t brute_force_lanes = 4;
 
 /// The non-degenerate triangles of a scene as the direct tests read them: structure of arrays,
 /// so that the compiler can test several triangles per instruction without a branch. Per
@@ -38,12 +47,112 @@ struct BruteForceTriangles {
     d2x.push_back(dual2.x), d2y.push_back(dual2.y), d2z.push_back(dual2.z);
     id.push_back(triangle);
   }
+
+  /// A run of consecutive triangles [first, first + count), and, where `bounded`, a box that
+  /// holds every point the direct test can accept on them: a query whose ray misses the box
+  /// skips the run. Runs keep the triangles' order, so a skip changes no answer.
+  struct Run {
+    std::uint32_t first = 0, count = 0;
+    bool bounded = false;
+    Vec3<double> lower{0}, upper{0};
+  };
+  std::vector<Run> runs;
 };
+
+/// Whether the ray o + t d, t in [0, t_limit], meets the box [lower, upper]; `inverse` is 1 / d
+/// componentwise. Conservative where a component of d is 0 (no 0 * infinity).
+[[nodiscard]] SEGPATH_FORCE_INLINE bool brute_force_ray_meets_box(const Vec3<double>& lower, const Vec3<double>& upper,
+                                                                  const Vec3<double>& origin, const Vec3<double>& direction,
+                                                                  const Vec3<double>& inverse, double t_limit) noexcept {
+  double near = 0, far = t_limit;
+  for (int a = 0; a < 3; ++a) {
+    if (direction[a] == 0) {
+      if (origin[a] < lower[a] || origin[a] > upper[a]) return false;
+      continue;
+    }
+    const double t0 = (lower[a] - origin[a]) * inverse[a], t1 = (upper[a] - origin[a]) * inverse[a];
+    near = std::max(near, std::min(t0, t1));
+    far = std::min(far, std::max(t0, t1));
+  }
+  return near <= far;
+}
+
+/// How much larger than its triangles' own box a run's box is, relative to the scene's extent
+/// and coordinates: the accepted points lie within 2^-40 of an edge (brute_force_edge_slack)
+/// and the distances round by ulps of double; this margin is orders of magnitude above both.
+inline constexpr double brute_force_box_margin = 0x1p-24;
+
+/// A run is bounded only while its box's surface area is at most this share of the scene's: a
+/// ray through the scene meets a box about in proportion to its area, and the box test costs
+/// about one triangle's.
+inline constexpr double brute_force_bounded_area_share = 0.25;
+
+/// Groups `tris` into runs (BruteForceTriangles::Run) from each triangle's box (its vertices'
+/// bounds, `lower[k]`, `upper[k]`): consecutive triangles whose common box stays small form a
+/// bounded run of up to brute_force_chunk, every other stretch one unbounded run.
+inline void brute_force_group_runs(BruteForceTriangles& tris, const std::vector<Vec3<double>>& lower,
+                                   const std::vector<Vec3<double>>& upper) {
+  using V = Vec3<double>;
+  const std::size_t n = tris.size();
+  auto area = [](const V& lo, const V& hi) {
+    const V e = glm::max(hi - lo, V(0));
+    return 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
+  };
+  tris.runs.clear();
+  if (n == 0) return;
+  V scene_lo = lower[0], scene_hi = upper[0];
+  for (std::size_t k = 1; k < n; ++k) scene_lo = glm::min(scene_lo, lower[k]), scene_hi = glm::max(scene_hi, upper[k]);
+  const double limit = brute_force_bounded_area_share * area(scene_lo, scene_hi);
+  const V largest = glm::max(glm::abs(scene_lo), glm::abs(scene_hi));
+  const double margin = brute_force_box_margin * (std::max({scene_hi.x - scene_lo.x, scene_hi.y - scene_lo.y, scene_hi.z - scene_lo.z}) +
+                                                  std::max({largest.x, largest.y, largest.z}));
+  std::size_t k = 0;
+  while (k < n) {
+    BruteForceTriangles::Run run;
+    run.first = std::uint32_t(k);
+    V lo = lower[k], hi = upper[k];
+    std::size_t end = k + 1;
+    if (area(lo, hi) <= limit) {
+      for (; end < n && end - k < brute_force_chunk; ++end) {
+        const V l = glm::min(lo, lower[end]), h = glm::max(hi, upper[end]);
+        if (area(l, h) > limit) break;
+        lo = l, hi = h;
+      }
+      // A bounded run of one triangle is not worth its box test.
+      run.bounded = end - k >= 2;
+      run.lower = lo - margin;
+      run.upper = hi + margin;
+    } else {
+      while (end < n && area(lower[end], upper[end]) > limit) ++end;
+    }
+    run.count = std::uint32_t(end - k);
+    if (!run.bounded && !tris.runs.empty() && !tris.runs.back().bounded)
+      tris.runs.back().count += run.count;  // neighbouring unbounded stretches are one run
+    else
+      tris.runs.push_back(run);
+    k = end;
+  }
+  // Each run again, padded to whole lanes: no plane (normal 0, offset 1) puts a padding entry
+  // at distance +infinity, which no query accepts.
+  BruteForceTriangles padded;
+  for (BruteForceTriangles::Run run : tris.runs) {
+    const std::size_t first = padded.size();
+    for (std::size_t k = run.first; k < std::size_t(run.first) + run.count; ++k)
+      padded.push_back({tris.nx[k], tris.ny[k], tris.nz[k]}, tris.offset[k], tris.band[k], {tris.v0x[k], tris.v0y[k], tris.v0z[k]},
+                       {tris.d1x[k], tris.d1y[k], tris.d1z[k]}, {tris.d2x[k], tris.d2y[k], tris.d2z[k]}, tris.id[k]);
+    while ((padded.size() - first) % brute_force_lanes != 0) padded.push_back(V(0), 1, 0, V(0), V(0), V(0), ~std::uint32_t(0));
+    run.first = std::uint32_t(first);
+    run.count = std::uint32_t(padded.size() - first);
+    padded.runs.push_back(run);
+  }
+  tris = std::move(padded);
+}
 
 /// The direct-test data of the non-degenerate triangles of `data`, in primitive-id order.
 template <Real T>
 [[nodiscard]] BruteForceTriangles brute_force_triangles(const EmbreeSceneData<T>& data) {
   BruteForceTriangles out;
+  std::vector<Vec3<double>> lower, upper;
   for (std::uint32_t id = 0; id < data.triangles.size(); ++id) {
     const EmbreeTrianglePlane& plane = data.planes[id];
     if (plane.normal == Vec3<double>(0, 0, 0)) continue;
@@ -53,7 +162,10 @@ template <Real T>
     // dual1 is orthogonal to e2 and n with dot(e1, dual1) = 1; dual2 likewise.
     const Vec3<double> c1 = glm::cross(e2, plane.normal), c2 = glm::cross(plane.normal, e1);
     out.push_back(plane.normal, plane.offset, 0x1p-48 * plane.scale, v0, c1 / glm::dot(e1, c1), c2 / glm::dot(e2, c2), id);
+    lower.push_back(glm::min(v0, glm::min(v0 + e1, v0 + e2)));
+    upper.push_back(glm::max(v0, glm::max(v0 + e1, v0 + e2)));
   }
+  brute_force_group_runs(out, lower, upper);
   return out;
 }
 
@@ -110,17 +222,15 @@ template <bool FarTest>
   return {glm::dot(p, Vec3<double>(tris.d1x[k], tris.d1y[k], tris.d1z[k])), glm::dot(p, Vec3<double>(tris.d2x[k], tris.d2y[k], tris.d2z[k]))};
 }
 
-/// Triangles are tested in chunks of this many: a chunk's distances are computed by one loop
-/// without a branch or a carried dependency (which the compiler vectorises), then compared.
-inline constexpr std::size_t brute_force_chunk = 32;
-
-/// The distances of triangles [first, first + count) (count <= brute_force_chunk) into `out`.
+/// The distances of triangles [first, first + count) (count <= brute_force_chunk, a multiple
+/// of brute_force_lanes) into `out`.
 template <bool FarTest>
 SEGPATH_FORCE_INLINE void brute_force_chunk_distances(const BruteForceTriangles& tris, std::size_t first, std::size_t count,
                                                       const EmbreeQueryContext& q, double origin_band, double far_band,
                                                       double* out) noexcept {
-  for (std::size_t l = 0; l < count; ++l)
-    out[l] = brute_force_triangle_distance<FarTest>(tris, first + l, q, origin_band, far_band, q.t_max);
+  for (std::size_t l = 0; l < count; l += brute_force_lanes)
+    for (std::size_t m = 0; m < brute_force_lanes; ++m)
+      out[l + m] = brute_force_triangle_distance<FarTest>(tris, first + l + m, q, origin_band, far_band, q.t_max);
 }
 
 /// brute_force_intersect's body, compiled once per instruction set (brute_force_intersect).
@@ -132,12 +242,18 @@ template <Real T>
   double best = q.t_max;
   std::size_t best_k = tris.size();
   double t[brute_force_chunk];
-  for (std::size_t first = 0; first < tris.size(); first += brute_force_chunk) {
-    const std::size_t count = std::min(brute_force_chunk, tris.size() - first);
-    brute_force_chunk_distances<false>(tris, first, count, q, origin_band, 0.0, t);
-    for (std::size_t l = 0; l < count; ++l) {
-      best_k = t[l] < best ? first + l : best_k;
-      best = t[l] < best ? t[l] : best;
+  const Vec3<double> inverse = 1.0 / q.direction;
+  for (const BruteForceTriangles::Run& run : tris.runs) {
+    // Only a distance below best can replace it.
+    if (run.bounded && !brute_force_ray_meets_box(run.lower, run.upper, q.origin, q.direction, inverse, best)) continue;
+    const std::size_t run_end = std::size_t(run.first) + run.count;
+    for (std::size_t first = run.first; first < run_end; first += brute_force_chunk) {
+      const std::size_t count = std::min(brute_force_chunk, run_end - first);
+      brute_force_chunk_distances<false>(tris, first, count, q, origin_band, 0.0, t);
+      for (std::size_t l = 0; l < count; ++l) {
+        best_k = t[l] < best ? first + l : best_k;
+        best = t[l] < best ? t[l] : best;
+      }
     }
   }
   std::optional<BruteForceHit> hit;
@@ -165,12 +281,17 @@ template <Real T>
   const double far_band = q.skip_far_surface ? embree_on_surface_tolerance<T>(q.far_point, 0.0)
                                              : -std::numeric_limits<double>::infinity();
   double t[brute_force_chunk];
-  for (std::size_t first = 0; first < tris.size(); first += brute_force_chunk) {
-    const std::size_t count = std::min(brute_force_chunk, tris.size() - first);
-    brute_force_chunk_distances<true>(tris, first, count, q, origin_band, far_band, t);
-    bool blocked = false;
-    for (std::size_t l = 0; l < count; ++l) blocked |= t[l] < q.t_max;
-    if (blocked) return true;
+  const Vec3<double> inverse = 1.0 / q.direction;
+  for (const BruteForceTriangles::Run& run : tris.runs) {
+    if (run.bounded && !brute_force_ray_meets_box(run.lower, run.upper, q.origin, q.direction, inverse, q.t_max)) continue;
+    const std::size_t run_end = std::size_t(run.first) + run.count;
+    for (std::size_t first = run.first; first < run_end; first += brute_force_chunk) {
+      const std::size_t count = std::min(brute_force_chunk, run_end - first);
+      brute_force_chunk_distances<true>(tris, first, count, q, origin_band, far_band, t);
+      bool blocked = false;
+      for (std::size_t l = 0; l < count; ++l) blocked |= t[l] < q.t_max;
+      if (blocked) return true;
+    }
   }
   const EmbreeQueryBands bands = embree_query_bands<T>(q);
   for (std::uint32_t k = 0; k < data.spheres.size(); ++k)
