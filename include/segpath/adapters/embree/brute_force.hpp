@@ -132,6 +132,28 @@ inline void brute_force_group_runs(BruteForceTriangles& tris, const std::vector<
       tris.runs.push_back(run);
     k = end;
   }
+  // An unbounded run ends on a whole lane: it takes the first triangles of the bounded run after
+  // it, whose box still holds the rest (order kept). A bounded run left with one triangle is
+  // tested always.
+  std::vector<BruteForceTriangles::Run> runs;
+  for (std::size_t r = 0; r < tris.runs.size(); ++r) {
+    BruteForceTriangles::Run run = tris.runs[r];
+    if (!runs.empty() && !runs.back().bounded && !(run.bounded && run.count >= 2)) {
+      runs.back().count += run.count;
+      continue;
+    }
+    runs.push_back(run);
+    BruteForceTriangles::Run& last = runs.back();
+    if (!last.bounded && r + 1 < tris.runs.size()) {
+      BruteForceTriangles::Run& next = tris.runs[r + 1];
+      const auto take = std::min<std::uint32_t>((brute_force_lanes - last.count % brute_force_lanes) % brute_force_lanes, next.count);
+      last.count += take;
+      next.first += take;
+      next.count -= take;
+      if (next.count == 0) ++r;
+    }
+  }
+  tris.runs = std::move(runs);
   // Each run again, padded to whole lanes: no plane (normal 0, offset 1) puts a padding entry
   // at distance +infinity, which no query accepts.
   BruteForceTriangles padded;
