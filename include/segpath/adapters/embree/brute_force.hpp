@@ -88,11 +88,18 @@ inline constexpr double brute_force_box_margin = 0x1p-24;
 inline constexpr double brute_force_bounded_area_share = 0.25;
 
 /// Groups `tris` into runs (BruteForceTriangles::Run) from each triangle's box (its vertices'
-/// bounds, `lower[k]`, `upper[k]`): consecutive triangles whose common box stays small form a
-/// bounded run of up to brute_force_chunk, every other stretch one unbounded run.
+/// bounds, `lower[k]`, `upper[k]`) and pads each run to whole lanes:
+///  - consecutive triangles whose common box stays small form a bounded run of up to
+///    brute_force_chunk; a run of one is not worth its box test and is not bounded;
+///  - consecutive triangles outside bounded runs form one unbounded run, which ends on a whole
+///    lane by taking the first triangles of the bounded run after it (whose box still holds the
+///    rest);
+///  - padding entries have no plane (normal 0, offset 1): distance +infinity, which no query
+///    accepts.
 inline void brute_force_group_runs(BruteForceTriangles& tris, const std::vector<Vec3<double>>& lower,
                                    const std::vector<Vec3<double>>& upper) {
   using V = Vec3<double>;
+  using Run = BruteForceTriangles::Run;
   const std::size_t n = tris.size();
   auto area = [](const V& lo, const V& hi) {
     const V e = glm::max(hi - lo, V(0));
@@ -103,61 +110,47 @@ inline void brute_force_group_runs(BruteForceTriangles& tris, const std::vector<
   V scene_lo = lower[0], scene_hi = upper[0];
   for (std::size_t k = 1; k < n; ++k) scene_lo = glm::min(scene_lo, lower[k]), scene_hi = glm::max(scene_hi, upper[k]);
   const double limit = brute_force_bounded_area_share * area(scene_lo, scene_hi);
-  const V largest = glm::max(glm::abs(scene_lo), glm::abs(scene_hi));
-  const double margin = brute_force_box_margin * (std::max({scene_hi.x - scene_lo.x, scene_hi.y - scene_lo.y, scene_hi.z - scene_lo.z}) +
-                                                  std::max({largest.x, largest.y, largest.z}));
-  std::size_t k = 0;
-  while (k < n) {
-    BruteForceTriangles::Run run;
-    run.first = std::uint32_t(k);
-    V lo = lower[k], hi = upper[k];
-    std::size_t end = k + 1;
-    if (area(lo, hi) <= limit) {
+  const V extent = scene_hi - scene_lo, largest = glm::max(glm::abs(scene_lo), glm::abs(scene_hi));
+  const double margin = brute_force_box_margin * (std::max({extent.x, extent.y, extent.z}) + std::max({largest.x, largest.y, largest.z}));
+  // The runs as cut: each stretch of small boxes greedily, one run per stretch of large ones.
+  std::vector<Run> cut;
+  for (std::size_t k = 0, end = 0; k < n; k = end) {
+    Run run{std::uint32_t(k), 0, area(lower[k], upper[k]) <= limit, lower[k], upper[k]};
+    end = k + 1;
+    if (run.bounded) {
       for (; end < n && end - k < brute_force_chunk; ++end) {
-        const V l = glm::min(lo, lower[end]), h = glm::max(hi, upper[end]);
+        const V l = glm::min(run.lower, lower[end]), h = glm::max(run.upper, upper[end]);
         if (area(l, h) > limit) break;
-        lo = l, hi = h;
+        run.lower = l, run.upper = h;
       }
-      // A bounded run of one triangle is not worth its box test.
-      run.bounded = end - k >= 2;
-      run.lower = lo - margin;
-      run.upper = hi + margin;
+      run.lower -= margin;
+      run.upper += margin;
     } else {
       while (end < n && area(lower[end], upper[end]) > limit) ++end;
     }
     run.count = std::uint32_t(end - k);
-    if (!run.bounded && !tris.runs.empty() && !tris.runs.back().bounded)
-      tris.runs.back().count += run.count;  // neighbouring unbounded stretches are one run
-    else
-      tris.runs.push_back(run);
-    k = end;
+    cut.push_back(run);
   }
-  // An unbounded run ends on a whole lane: it takes the first triangles of the bounded run after
-  // it, whose box still holds the rest (order kept). A bounded run left with one triangle is
-  // tested always.
-  std::vector<BruteForceTriangles::Run> runs;
-  for (std::size_t r = 0; r < tris.runs.size(); ++r) {
-    BruteForceTriangles::Run run = tris.runs[r];
-    if (!runs.empty() && !runs.back().bounded && !(run.bounded && run.count >= 2)) {
+  // Unbounded neighbours merged, unbounded runs aligned to whole lanes, then padded.
+  std::vector<Run> runs;
+  for (std::size_t r = 0; r < cut.size(); ++r) {
+    Run run = cut[r];
+    if (run.count == 0) continue;
+    run.bounded = run.bounded && run.count >= 2;
+    if (!run.bounded && !runs.empty() && !runs.back().bounded)
       runs.back().count += run.count;
-      continue;
-    }
-    runs.push_back(run);
-    BruteForceTriangles::Run& last = runs.back();
-    if (!last.bounded && r + 1 < tris.runs.size()) {
-      BruteForceTriangles::Run& next = tris.runs[r + 1];
-      const auto take = std::min<std::uint32_t>((brute_force_lanes - last.count % brute_force_lanes) % brute_force_lanes, next.count);
+    else
+      runs.push_back(run);
+    if (Run& last = runs.back(); !last.bounded && r + 1 < cut.size()) {
+      const auto missing = std::uint32_t((brute_force_lanes - last.count % brute_force_lanes) % brute_force_lanes);
+      const std::uint32_t take = std::min(missing, cut[r + 1].count);
       last.count += take;
-      next.first += take;
-      next.count -= take;
-      if (next.count == 0) ++r;
+      cut[r + 1].first += take;
+      cut[r + 1].count -= take;
     }
   }
-  tris.runs = std::move(runs);
-  // Each run again, padded to whole lanes: no plane (normal 0, offset 1) puts a padding entry
-  // at distance +infinity, which no query accepts.
   BruteForceTriangles padded;
-  for (BruteForceTriangles::Run run : tris.runs) {
+  for (Run run : runs) {
     const std::size_t first = padded.size();
     for (std::size_t k = run.first; k < std::size_t(run.first) + run.count; ++k)
       padded.push_back({tris.nx[k], tris.ny[k], tris.nz[k]}, tris.offset[k], tris.band[k], {tris.v0x[k], tris.v0y[k], tris.v0z[k]},
