@@ -887,3 +887,46 @@ TEMPLATE_TEST_CASE("EmbreeManifold: the direct traversal finds what Embree's fin
   else WARN("no AVX2 on this CPU: the direct traversal's AVX2 variant is not compared");
 #endif
 }
+
+TEST_CASE("direct traversal: compact triangles form bounded runs, every run whole lanes", "[adapters][embree]") {
+  // Ten triangles as large as a room's walls, then ten inside a small fixture, then one large
+  // and three small ones far apart: the walls form one unbounded run that ends on a whole lane
+  // with the fixture's first two, the fixture's other eight one bounded run; the last four are
+  // tested always (the large one alone, the small ones' common box too large).
+  using V = Vec3<double>;
+  segpath::detail::BruteForceTriangles tris;
+  std::vector<V> lower, upper;
+  auto add = [&](const V& lo, const V& hi) {
+    tris.push_back(V(0, 0, 1), 0, 0, lo, V(0), V(0), std::uint32_t(tris.size()));
+    lower.push_back(lo);
+    upper.push_back(hi);
+  };
+  for (int k = 0; k < 10; ++k) add(V(-1, -1, -1), V(1, 1, -1 + 0.2 * k));
+  for (int k = 0; k < 10; ++k) add(V(-0.25, -0.25, 0.9), V(0.25, 0.25, 0.92 + 0.001 * k));
+  add(V(-1, -1, 0), V(1, 1, 0));
+  add(V(-1, -1, -1), V(-0.9, -0.9, -0.9));
+  add(V(0.9, 0.9, 0.9), V(1, 1, 1));
+  add(V(-1, 0.9, -1), V(-0.9, 1, -0.9));
+  segpath::detail::brute_force_group_runs(tris, lower, upper);
+
+  REQUIRE(tris.runs.size() == 3);
+  const auto& walls = tris.runs[0];
+  const auto& fixture = tris.runs[1];
+  const auto& rest = tris.runs[2];
+  CHECK((walls.first == 0 && walls.count == 12 && !walls.bounded));
+  CHECK((fixture.first == 12 && fixture.count == 8 && fixture.bounded));
+  CHECK((rest.first == 20 && rest.count == 4 && !rest.bounded));
+  // The fixture's box holds its triangles' boxes (widened by a margin far below their size).
+  for (std::uint32_t k = 12; k < 20; ++k) {
+    CHECK(glm::all(glm::lessThanEqual(fixture.lower, lower[k])));
+    CHECK(glm::all(glm::greaterThanEqual(fixture.upper, upper[k])));
+  }
+  CHECK(glm::all(glm::greaterThan(fixture.lower, V(-0.26, -0.26, 0.89))));
+  // Every triangle once, in order; padding entries carry no id.
+  std::vector<std::uint32_t> ids;
+  for (std::size_t k = 0; k < tris.size(); ++k)
+    if (tris.id[k] != ~std::uint32_t(0)) ids.push_back(tris.id[k]);
+  REQUIRE(ids.size() == 24);
+  for (std::uint32_t k = 0; k < 24; ++k) CHECK(ids[k] == k);
+  for (const auto& run : tris.runs) CHECK(run.count % segpath::detail::brute_force_lanes == 0);
+}
