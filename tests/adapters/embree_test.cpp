@@ -5,6 +5,7 @@
 #include <segpath/testing/chi_square.hpp>
 #include <segpath/testing/statistics.hpp>
 
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -846,8 +847,8 @@ TEMPLATE_TEST_CASE("EmbreeManifold: the direct traversal finds what Embree's fin
   shelf.triangles = {{0, 1, 2}, {2, 3, 0}};
   desc.meshes.push_back(shelf);
 
-  // The automatic choice: direct tests up to brute_force_max_primitives(), Embree above.
-  CHECK(M(desc).brute_force() == (M(desc).primitive_count() <= M::brute_force_max_primitives()));
+  // The automatic choice: direct tests up to brute_force_max_primitives() expected tests, Embree above.
+  CHECK(M(desc).brute_force() == (M(desc).expected_direct_tests() <= M::brute_force_max_primitives()));
   typename M::Description big;
   for (std::uint32_t k = 0; k <= M::brute_force_max_primitives(); ++k) big.spheres.push_back({Vec3<T>(T(3 * k), 0, 0), T(1), 0});
   CHECK_FALSE(M(big).brute_force());
@@ -929,4 +930,69 @@ TEST_CASE("direct traversal: compact triangles form bounded runs, every run whol
   REQUIRE(ids.size() == 24);
   for (std::uint32_t k = 0; k < 24; ++k) CHECK(ids[k] == k);
   for (const auto& run : tris.runs) CHECK(run.count % segpath::detail::brute_force_lanes == 0);
+  // Expected tests per query: the 16 entries of the unbounded runs, the fixture's box test and
+  // its 8 triangles times the share of rays through [-1, 1]^3 that meet its box.
+  const V e = fixture.upper - fixture.lower;
+  const double share = 2 * (e.x * e.y + e.y * e.z + e.z * e.x) / 24.0;
+  CHECK(share < 0.03);
+  CHECK(tris.expected_tests == Approx(16 + segpath::detail::brute_force_box_test_cost + 8 * share).epsilon(1e-12));
+}
+
+TEST_CASE("EmbreeManifold: the automatic traversal counts the tests a query makes, not the primitives", "[adapters][embree]") {
+  // A room (12 triangles) with ten small closed boxes inside (120 triangles, compact runs): a
+  // query tests the walls and ten box tests or so, and the automatic traversal is direct; the
+  // same number of triangles scattered through the room is left to Embree.
+  using T = float;
+  using M = EmbreeManifold<T>;
+  using V = Vec3<T>;
+  auto room = [] {
+    typename M::Mesh mesh;
+    for (int i = 0; i < 8; ++i) mesh.positions.push_back(V(T(i & 1), T((i >> 1) & 1), T((i >> 2) & 1)));
+    const std::array<std::array<std::uint32_t, 4>, 6> faces{{{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1},
+                                                             {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}}};
+    for (const auto& f : faces) {
+      mesh.triangles.push_back({f[0], f[1], f[2]});
+      mesh.triangles.push_back({f[0], f[2], f[3]});
+    }
+    return mesh;
+  };
+  segpath::Pcg32 rng(5, 9);
+  auto inside = [&] { return V(T(0.15) + T(0.7) * rng.uniform<T>(), T(0.15) + T(0.7) * rng.uniform<T>(), T(0.15) + T(0.7) * rng.uniform<T>()); };
+  typename M::Description boxes;
+  boxes.meshes.push_back(room());
+  typename M::Mesh clutter;
+  for (int b = 0; b < 10; ++b) {
+    const typename M::Mesh unit = room();
+    const V c = inside();
+    const auto base = std::uint32_t(clutter.positions.size());
+    for (const V& p : unit.positions) clutter.positions.push_back(c + T(0.08) * (p - V(T(0.5))));
+    for (const auto& t : unit.triangles) clutter.triangles.push_back({base + t[0], base + t[1], base + t[2]});
+  }
+  boxes.meshes.push_back(clutter);
+  const M compact(boxes);
+  REQUIRE(compact.primitive_count() == 132);
+  CHECK(compact.primitive_count() > M::brute_force_max_primitives());
+  INFO("expected tests " << compact.expected_direct_tests());
+  CHECK(compact.expected_direct_tests() <= M::brute_force_max_primitives());
+  CHECK(compact.expected_direct_tests() >= 12);  // the walls at least
+  CHECK(compact.brute_force());
+  const auto c = compare_traversals<T>(boxes, V(T(0.5)), 4000, 31);
+  CHECK(c.different == 0);
+  CHECK(c.hits > 2000);
+
+  // The same count as triangles across the room (each spans it): every one is tested.
+  typename M::Description scattered;
+  scattered.meshes.push_back(room());
+  typename M::Mesh planes;
+  for (std::uint32_t k = 0; k < 120; ++k) {
+    const T z = T(0.05) + T(0.9) * rng.uniform<T>();
+    planes.positions.push_back(V(0, 0, z));
+    planes.positions.push_back(V(1, 0, z + T(0.01)));
+    planes.positions.push_back(V(0, 1, z - T(0.01)));
+    planes.triangles.push_back({3 * k, 3 * k + 1, 3 * k + 2});
+  }
+  scattered.meshes.push_back(planes);
+  const M spread(scattered);
+  CHECK(spread.expected_direct_tests() >= 132);
+  CHECK_FALSE(spread.brute_force());
 }

@@ -63,13 +63,14 @@ namespace segpath {
 /// and visible, but area() is 0 and sample_area() always returns nullopt; check
 /// can_sample_area() before handing it to an estimator that samples by area.
 ///
-/// Traversal: a scene of at most brute_force_max_primitives() primitives is traced, by default,
-/// without Embree's traversal: every primitive is tested directly with the same exact tests
-/// (adapters/embree/brute_force.hpp), which is faster at that size. Hits then differ from
-/// Embree's only where Embree's float traversal decides otherwise: within float precision of a
-/// triangle's edge (Embree tests float vertices and a float ray), or between two surfaces
-/// whose distances agree to float precision (Embree keeps the nearer in float). The Embree
-/// scene is built either way (rtc_scene()).
+/// Traversal: a scene whose queries are expected to make at most brute_force_max_primitives()
+/// primitive tests (expected_direct_tests()) is traced, by default, without Embree's traversal:
+/// every primitive is tested directly with the same exact tests (adapters/embree/brute_force.hpp),
+/// but for the runs of compact triangles whose box a ray misses; at that cost this is faster.
+/// Hits then differ from Embree's only where Embree's float traversal decides otherwise:
+/// within float precision of a triangle's edge (Embree tests float vertices and a float ray),
+/// or between two surfaces whose distances agree to float precision (Embree keeps the nearer
+/// in float). The Embree scene is built either way (rtc_scene()).
 ///
 /// Thread safety: all queries are const and may run concurrently. Not copyable; movable (a
 /// moved-from manifold may only be destroyed or assigned to).
@@ -96,13 +97,17 @@ class EmbreeManifold {
   };
   /// How queries find their candidates (see the class comment).
   enum class Traversal : std::uint8_t {
-    automatic,    ///< brute_force up to brute_force_max_primitives() primitives, else embree
+    automatic,    ///< brute_force up to brute_force_max_primitives() expected tests, else embree
     embree,       ///< Embree's BVH proposes candidates, the exact callbacks accept them
     brute_force,  ///< every primitive is tested exactly
   };
-  /// The largest scene that Traversal::automatic traces by direct tests: 40 primitives on a
-  /// CPU with AVX2, else 24 (detail::brute_force_automatic_limit).
+  /// The most primitive tests a query may be expected to make (expected_direct_tests()) for
+  /// Traversal::automatic to trace a scene by direct tests: 40 on a CPU with AVX2, else 24
+  /// (detail::brute_force_automatic_limit).
   [[nodiscard]] static std::uint32_t brute_force_max_primitives() noexcept { return detail::brute_force_automatic_limit(); }
+  /// Traversal::automatic looks at the runs of scenes of at most this many triangles; larger
+  /// ones are traced by Embree whatever their runs.
+  [[nodiscard]] static std::uint32_t brute_force_max_scanned_triangles() noexcept { return 64 * brute_force_max_primitives(); }
 
   struct Description {
     std::vector<Mesh> meshes;
@@ -121,10 +126,16 @@ class EmbreeManifold {
         data_(std::make_unique<detail::EmbreeSceneData<T>>()) {
     load(description);
     build(device_config);
-    const bool direct = description.traversal == Traversal::brute_force ||
-                        (description.traversal == Traversal::automatic && primitive_count() <= brute_force_max_primitives());
-    if (direct) direct_triangles_ = detail::brute_force_triangles(*data_);
-    brute_force_ = direct;
+    const bool scanned = description.traversal == Traversal::brute_force ||
+                         (description.traversal == Traversal::automatic && triangle_count() <= brute_force_max_scanned_triangles());
+    expected_direct_tests_ = double(primitive_count());
+    if (scanned) {
+      direct_triangles_ = detail::brute_force_triangles(*data_);
+      expected_direct_tests_ = double(sphere_count()) + direct_triangles_.expected_tests;
+    }
+    brute_force_ = description.traversal == Traversal::brute_force ||
+                   (scanned && expected_direct_tests_ <= double(brute_force_max_primitives()));
+    if (!brute_force_) direct_triangles_ = {};
   }
 
   EmbreeManifold(const EmbreeManifold&) = delete;
@@ -150,6 +161,11 @@ class EmbreeManifold {
   /// Whether queries test every primitive directly (Traversal::brute_force, or automatic on a
   /// small scene) rather than through Embree's traversal.
   [[nodiscard]] bool brute_force() const noexcept { return brute_force_; }
+  /// The primitive tests a direct query is expected to make: the spheres, the triangles of the
+  /// unbounded runs, and per bounded run its box test and its triangles times the chance that a
+  /// ray meets its box (detail::brute_force_expected_tests). primitive_count() for a scene
+  /// automatic traversal did not scan (above brute_force_max_scanned_triangles()).
+  [[nodiscard]] double expected_direct_tests() const noexcept { return expected_direct_tests_; }
   /// Whether sample_area can draw points: the total area is positive.
   [[nodiscard]] bool can_sample_area() const noexcept { return data_->total_area > 0; }
   /// The Embree scene, for renderers that trace their own rays too.
@@ -556,6 +572,7 @@ class EmbreeManifold {
   std::unique_ptr<RTCSceneTy, detail::EmbreeSceneDeleter> scene_;
   /// The non-degenerate triangles' direct-test data where brute_force_, else empty.
   detail::BruteForceTriangles direct_triangles_;
+  double expected_direct_tests_ = 0;
   bool brute_force_ = false;
 };
 

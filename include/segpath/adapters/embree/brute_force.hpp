@@ -57,6 +57,8 @@ struct BruteForceTriangles {
     Vec3<double> lower{0}, upper{0};
   };
   std::vector<Run> runs;
+  /// The triangle tests a query is expected to make (brute_force_expected_tests).
+  double expected_tests = 0;
 };
 
 /// Whether the ray o + t d, t in [0, t_limit], meets the box [lower, upper]; `inverse` is 1 / d
@@ -87,6 +89,28 @@ inline constexpr double brute_force_box_margin = 0x1p-24;
 /// about one triangle's.
 inline constexpr double brute_force_bounded_area_share = 0.25;
 
+/// A run's box test, in triangle tests: what one box costs a query against what one triangle
+/// does (bench/renderer/embree_traversal_bench.cpp; docs/figures.md, session 41).
+inline constexpr double brute_force_box_test_cost = 1.0;
+
+/// The triangle tests a query through the runs is expected to make: every entry of an unbounded
+/// run (padding included), and for a bounded run its box test plus its entries times the chance
+/// that a ray through the scene meets its box, the ratio of the two boxes' surface areas (for
+/// uniformly random lines through a convex region, Cauchy's formula).
+[[nodiscard]] inline double brute_force_expected_tests(const std::vector<BruteForceTriangles::Run>& runs, double scene_area) noexcept {
+  double tests = 0;
+  for (const BruteForceTriangles::Run& run : runs) {
+    if (!run.bounded) {
+      tests += run.count;
+      continue;
+    }
+    const Vec3<double> e = glm::max(run.upper - run.lower, Vec3<double>(0));
+    const double share = scene_area > 0 ? std::min(1.0, 2 * (e.x * e.y + e.y * e.z + e.z * e.x) / scene_area) : 1.0;
+    tests += brute_force_box_test_cost + run.count * share;
+  }
+  return tests;
+}
+
 /// Groups `tris` into runs (BruteForceTriangles::Run) from each triangle's box (its vertices'
 /// bounds, `lower[k]`, `upper[k]`) and pads each run to whole lanes:
 ///  - consecutive triangles whose common box stays small form a bounded run of up to
@@ -106,6 +130,7 @@ inline void brute_force_group_runs(BruteForceTriangles& tris, const std::vector<
     return 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
   };
   tris.runs.clear();
+  tris.expected_tests = 0;
   if (n == 0) return;
   V scene_lo = lower[0], scene_hi = upper[0];
   for (std::size_t k = 1; k < n; ++k) scene_lo = glm::min(scene_lo, lower[k]), scene_hi = glm::max(scene_hi, upper[k]);
@@ -160,6 +185,7 @@ inline void brute_force_group_runs(BruteForceTriangles& tris, const std::vector<
     run.count = std::uint32_t(padded.size() - first);
     padded.runs.push_back(run);
   }
+  padded.expected_tests = brute_force_expected_tests(padded.runs, area(scene_lo, scene_hi));
   tris = std::move(padded);
 }
 
