@@ -1,7 +1,8 @@
 // Where EmbreeManifold's direct traversal (adapters/embree/brute_force.hpp) stops paying: the
 // same queries through Traversal::brute_force and Traversal::embree on scenes of N primitives,
 // a closed room (12 triangles) with N - 12 small random triangles inside, or N - 14 of them
-// and two spheres. Queries: rays from points on the room's surfaces in cosine-ish random
+// and two spheres, or (_boxes) (N - 12) / 12 small closed boxes of 12 triangles each, whose
+// triangles form the bounded runs the direct traversal skips as a whole. Queries: rays from points on the room's surfaces in cosine-ish random
 // directions (intersect), and visibility between two such points. The crossover of the
 // per-query times is what EmbreeManifold::brute_force_max_primitives() should be
 // (docs/figures.md).
@@ -36,14 +37,32 @@ M::Mesh room() {
   return mesh;
 }
 
-M::Description scene(std::uint32_t primitives, bool spheres, M::Traversal traversal) {
+/// What fills the room: random triangles, the same and two spheres, or small boxes.
+enum class Clutter { triangles, spheres, boxes };
+
+/// A closed box of 12 triangles, edge `size`, centred at c, appended to `mesh`.
+void add_box(M::Mesh& mesh, const V& c, T size) {
+  const M::Mesh unit = room();
+  const auto base = std::uint32_t(mesh.positions.size());
+  for (const V& p : unit.positions) mesh.positions.push_back(c + size * (p - V(T(0.5))));
+  for (const auto& t : unit.triangles) mesh.triangles.push_back({base + t[0], base + t[1], base + t[2]});
+}
+
+M::Description scene(std::uint32_t primitives, Clutter kind, M::Traversal traversal) {
   M::Description d;
   d.traversal = traversal;
   d.meshes.push_back(room());
+  const bool spheres = kind == Clutter::spheres;
   const std::uint32_t sphere_count = spheres ? 2 : 0;
   segpath::Pcg32 rng(7, 11);
   auto u = [&] { return rng.uniform<T>(); };
   M::Mesh clutter;
+  if (kind == Clutter::boxes) {
+    for (std::uint32_t k = 12; k + 12 <= primitives; k += 12)
+      add_box(clutter, V(T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u()), T(0.08));
+    if (!clutter.triangles.empty()) d.meshes.push_back(clutter);
+    return d;
+  }
   for (std::uint32_t k = 12 + sphere_count; k < primitives; ++k) {
     const V c(T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u());
     const auto base = std::uint32_t(clutter.positions.size());
@@ -69,8 +88,8 @@ std::vector<segpath::SurfacePoint<T>> wall_points(const M& manifold, std::size_t
   return points;
 }
 
-void intersect(benchmark::State& state, M::Traversal traversal, bool spheres) {
-  const M manifold(scene(std::uint32_t(state.range(0)), spheres, traversal));
+void intersect(benchmark::State& state, M::Traversal traversal, Clutter kind) {
+  const M manifold(scene(std::uint32_t(state.range(0)), kind, traversal));
   const auto points = wall_points(manifold, 4096);
   std::vector<segpath::IntersectQuery<T>> queries;
   segpath::Pcg32 rng(9, 1);
@@ -79,6 +98,7 @@ void intersect(benchmark::State& state, M::Traversal traversal, bool spheres) {
     V d = p.normal + glm::normalize(V(rng.uniform<T>() - T(0.5), rng.uniform<T>() - T(0.5), rng.uniform<T>() - T(0.5)));
     queries.push_back({segpath::Ray<T>{p.position, glm::normalize(d)}});
   }
+  state.counters["expected_tests"] = manifold.expected_direct_tests();
   std::size_t hits = 0;
   for (auto _ : state)
     for (const auto& q : queries) hits += manifold.intersect(q).has_value() ? 1 : 0;
@@ -86,8 +106,8 @@ void intersect(benchmark::State& state, M::Traversal traversal, bool spheres) {
   state.SetItemsProcessed(std::int64_t(state.iterations()) * std::int64_t(queries.size()));
 }
 
-void visible(benchmark::State& state, M::Traversal traversal, bool spheres) {
-  const M manifold(scene(std::uint32_t(state.range(0)), spheres, traversal));
+void visible(benchmark::State& state, M::Traversal traversal, Clutter kind) {
+  const M manifold(scene(std::uint32_t(state.range(0)), kind, traversal));
   const auto points = wall_points(manifold, 4096);
   std::size_t seen = 0;
   for (auto _ : state)
@@ -100,14 +120,23 @@ void sizes(benchmark::internal::Benchmark* b) {
   for (int n : {16, 20, 24, 28, 32, 40, 48, 64}) b->Arg(n);
 }
 
-BENCHMARK_CAPTURE(intersect, direct, M::Traversal::brute_force, false)->Apply(sizes);
-BENCHMARK_CAPTURE(intersect, embree, M::Traversal::embree, false)->Apply(sizes);
-BENCHMARK_CAPTURE(intersect, direct_spheres, M::Traversal::brute_force, true)->Apply(sizes);
-BENCHMARK_CAPTURE(intersect, embree_spheres, M::Traversal::embree, true)->Apply(sizes);
-BENCHMARK_CAPTURE(visible, direct, M::Traversal::brute_force, false)->Apply(sizes);
-BENCHMARK_CAPTURE(visible, embree, M::Traversal::embree, false)->Apply(sizes);
-BENCHMARK_CAPTURE(visible, direct_spheres, M::Traversal::brute_force, true)->Apply(sizes);
-BENCHMARK_CAPTURE(visible, embree_spheres, M::Traversal::embree, true)->Apply(sizes);
+/// Scenes of a room and 1-10 boxes.
+void box_sizes(benchmark::internal::Benchmark* b) {
+  for (int n : {24, 48, 72, 96, 132, 180, 252, 372}) b->Arg(n);
+}
+
+BENCHMARK_CAPTURE(intersect, direct, M::Traversal::brute_force, Clutter::triangles)->Apply(sizes);
+BENCHMARK_CAPTURE(intersect, embree, M::Traversal::embree, Clutter::triangles)->Apply(sizes);
+BENCHMARK_CAPTURE(intersect, direct_spheres, M::Traversal::brute_force, Clutter::spheres)->Apply(sizes);
+BENCHMARK_CAPTURE(intersect, embree_spheres, M::Traversal::embree, Clutter::spheres)->Apply(sizes);
+BENCHMARK_CAPTURE(intersect, direct_boxes, M::Traversal::brute_force, Clutter::boxes)->Apply(box_sizes);
+BENCHMARK_CAPTURE(intersect, embree_boxes, M::Traversal::embree, Clutter::boxes)->Apply(box_sizes);
+BENCHMARK_CAPTURE(visible, direct, M::Traversal::brute_force, Clutter::triangles)->Apply(sizes);
+BENCHMARK_CAPTURE(visible, embree, M::Traversal::embree, Clutter::triangles)->Apply(sizes);
+BENCHMARK_CAPTURE(visible, direct_spheres, M::Traversal::brute_force, Clutter::spheres)->Apply(sizes);
+BENCHMARK_CAPTURE(visible, embree_spheres, M::Traversal::embree, Clutter::spheres)->Apply(sizes);
+BENCHMARK_CAPTURE(visible, direct_boxes, M::Traversal::brute_force, Clutter::boxes)->Apply(box_sizes);
+BENCHMARK_CAPTURE(visible, embree_boxes, M::Traversal::embree, Clutter::boxes)->Apply(box_sizes);
 
 }  // namespace
 
