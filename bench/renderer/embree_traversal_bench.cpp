@@ -10,6 +10,7 @@
 #include <benchmark/benchmark.h>
 
 #include "segpath/adapters/embree.hpp"
+#include "segpath/adapters/embree/box_mesh.hpp"
 #include "segpath/core/rng.hpp"
 
 #include <array>
@@ -25,28 +26,10 @@ using M = segpath::EmbreeManifold<T>;
 using V = segpath::Vec3<T>;
 
 /// The inside of the unit cube, its six faces as two triangles each, normals inwards.
-M::Mesh room() {
-  M::Mesh mesh;
-  for (int i = 0; i < 8; ++i) mesh.positions.push_back(V(T(i & 1), T((i >> 1) & 1), T((i >> 2) & 1)));
-  const std::array<std::array<std::uint32_t, 4>, 6> faces{{{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1},
-                                                           {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}}};
-  for (const auto& f : faces) {
-    mesh.triangles.push_back({f[0], f[1], f[2]});
-    mesh.triangles.push_back({f[0], f[2], f[3]});
-  }
-  return mesh;
-}
+M::Mesh room() { return segpath::box_mesh<T>(V(0), V(1), segpath::BoxFacing::inwards); }
 
 /// What fills the room: random triangles, the same and two spheres, or small boxes.
 enum class Clutter { triangles, spheres, boxes };
-
-/// A closed box of 12 triangles, edge `size`, centred at c, appended to `mesh`.
-void add_box(M::Mesh& mesh, const V& c, T size) {
-  const M::Mesh unit = room();
-  const auto base = std::uint32_t(mesh.positions.size());
-  for (const V& p : unit.positions) mesh.positions.push_back(c + size * (p - V(T(0.5))));
-  for (const auto& t : unit.triangles) mesh.triangles.push_back({base + t[0], base + t[1], base + t[2]});
-}
 
 M::Description scene(std::uint32_t primitives, Clutter kind, M::Traversal traversal) {
   M::Description d;
@@ -59,7 +42,10 @@ M::Description scene(std::uint32_t primitives, Clutter kind, M::Traversal traver
   M::Mesh clutter;
   if (kind == Clutter::boxes) {
     for (std::uint32_t k = 12; k + 12 <= primitives; k += 12)
-      add_box(clutter, V(T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u()), T(0.08));
+    {
+      const V c(T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u());
+      segpath::append_box<T>(clutter, c - T(0.04), c + T(0.04), segpath::BoxFacing::outwards);
+    }
     if (!clutter.triangles.empty()) d.meshes.push_back(clutter);
     return d;
   }

@@ -1,4 +1,5 @@
 #include <segpath/adapters/embree.hpp>
+#include <segpath/adapters/embree/box_mesh.hpp>
 
 #include <segpath/core/frame.hpp>
 #include <segpath/core/rng.hpp>
@@ -938,6 +939,35 @@ TEST_CASE("direct traversal: compact triangles form bounded runs, every run whol
   CHECK(tris.expected_tests == Approx(16 + segpath::detail::brute_force_box_test_cost + 8 * share).epsilon(1e-12));
 }
 
+TEST_CASE("box_mesh: twelve triangles covering the box, normals inwards or outwards", "[adapters][embree]") {
+  using T = double;
+  using V = Vec3<T>;
+  const V lower(-1, 0.5, 2), upper(3, 1.5, 2.25), center = (lower + upper) / T(2);
+  for (const auto facing : {segpath::BoxFacing::inwards, segpath::BoxFacing::outwards}) {
+    const auto mesh = segpath::box_mesh<T>(lower, upper, facing);
+    REQUIRE(mesh.triangles.size() == 12);
+    T area = 0;
+    for (const auto& t : mesh.triangles) {
+      const V a = mesh.positions[t[0]], b = mesh.positions[t[1]], c = mesh.positions[t[2]];
+      const V n = glm::cross(b - a, c - a);
+      area += glm::length(n) / 2;
+      // The normal along the face's axis, pointing towards the centre (inwards) or away.
+      const T towards = glm::dot(n, center - (a + b + c) / T(3));
+      CHECK((facing == segpath::BoxFacing::inwards ? towards > 0 : towards < 0));
+      for (const V& p : {a, b, c}) CHECK((glm::all(glm::greaterThanEqual(p, lower)) && glm::all(glm::lessThanEqual(p, upper))));
+    }
+    const V e = upper - lower;
+    CHECK(area == Approx(2 * (e.x * e.y + e.y * e.z + e.z * e.x)));
+  }
+  // Appended: indices shifted past what the mesh held.
+  auto two = segpath::box_mesh<T>(lower, upper, segpath::BoxFacing::outwards);
+  segpath::append_box<T>(two, upper, upper + V(1), segpath::BoxFacing::outwards);
+  REQUIRE(two.triangles.size() == 24);
+  CHECK(two.positions.size() == 16);
+  for (std::size_t k = 12; k < 24; ++k)
+    for (const auto i : two.triangles[k]) CHECK(i >= 8);
+}
+
 TEST_CASE("EmbreeManifold: the automatic traversal counts the tests a query makes, not the primitives", "[adapters][embree]") {
   // A room (12 triangles) with ten small closed boxes inside (120 triangles, compact runs): a
   // query tests the walls and ten box tests or so, and the automatic traversal is direct; the
@@ -945,28 +975,15 @@ TEST_CASE("EmbreeManifold: the automatic traversal counts the tests a query make
   using T = float;
   using M = EmbreeManifold<T>;
   using V = Vec3<T>;
-  auto room = [] {
-    typename M::Mesh mesh;
-    for (int i = 0; i < 8; ++i) mesh.positions.push_back(V(T(i & 1), T((i >> 1) & 1), T((i >> 2) & 1)));
-    const std::array<std::array<std::uint32_t, 4>, 6> faces{{{0, 1, 3, 2}, {4, 6, 7, 5}, {0, 4, 5, 1},
-                                                             {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 5, 7, 3}}};
-    for (const auto& f : faces) {
-      mesh.triangles.push_back({f[0], f[1], f[2]});
-      mesh.triangles.push_back({f[0], f[2], f[3]});
-    }
-    return mesh;
-  };
+  auto room = [] { return segpath::box_mesh<T>(V(0), V(1), segpath::BoxFacing::inwards); };
   segpath::Pcg32 rng(5, 9);
   auto inside = [&] { return V(T(0.15) + T(0.7) * rng.uniform<T>(), T(0.15) + T(0.7) * rng.uniform<T>(), T(0.15) + T(0.7) * rng.uniform<T>()); };
   typename M::Description boxes;
   boxes.meshes.push_back(room());
   typename M::Mesh clutter;
   for (int b = 0; b < 10; ++b) {
-    const typename M::Mesh unit = room();
     const V c = inside();
-    const auto base = std::uint32_t(clutter.positions.size());
-    for (const V& p : unit.positions) clutter.positions.push_back(c + T(0.08) * (p - V(T(0.5))));
-    for (const auto& t : unit.triangles) clutter.triangles.push_back({base + t[0], base + t[1], base + t[2]});
+    segpath::append_box<T>(clutter, c - T(0.04), c + T(0.04), segpath::BoxFacing::outwards);
   }
   boxes.meshes.push_back(clutter);
   const M compact(boxes);
