@@ -2,10 +2,11 @@
 // same queries through Traversal::brute_force and Traversal::embree on scenes of N primitives,
 // a closed room (12 triangles) with N - 12 small random triangles inside, or N - 14 of them
 // and two spheres, or (_boxes) (N - 12) / 12 small closed boxes of 12 triangles each, whose
-// triangles form the bounded runs the direct traversal skips as a whole. Queries: rays from points on the room's surfaces in cosine-ish random
-// directions (intersect), and visibility between two such points. The crossover of the
-// per-query times is what EmbreeManifold::brute_force_max_primitives() should be
-// (docs/figures.md).
+// triangles form the bounded runs the direct traversal skips as a whole. Queries: rays from
+// points on the room's surfaces in cosine-ish random directions (intersect), and visibility
+// between two such points. Each scene reports its expected direct tests
+// (EmbreeManifold::expected_direct_tests()); where the per-query times cross is what
+// EmbreeManifold::brute_force_max_primitives() should be (docs/figures.md).
 //   build/bench/renderer/bench_renderer_embree_traversal_bench
 #include <benchmark/benchmark.h>
 
@@ -95,6 +96,7 @@ void intersect(benchmark::State& state, M::Traversal traversal, Clutter kind) {
 void visible(benchmark::State& state, M::Traversal traversal, Clutter kind) {
   const M manifold(scene(std::uint32_t(state.range(0)), kind, traversal));
   const auto points = wall_points(manifold, 4096);
+  state.counters["expected_tests"] = manifold.expected_direct_tests();
   std::size_t seen = 0;
   for (auto _ : state)
     for (std::size_t i = 0; i + 1 < points.size(); i += 2) seen += manifold.visible({points[i], points[i + 1]}) ? 1 : 0;
@@ -106,7 +108,7 @@ void sizes(benchmark::internal::Benchmark* b) {
   for (int n : {16, 20, 24, 28, 32, 40, 48, 64}) b->Arg(n);
 }
 
-/// Scenes of a room and 1-10 boxes.
+/// Scenes of a room and 1-30 boxes.
 void box_sizes(benchmark::internal::Benchmark* b) {
   for (int n : {24, 48, 72, 96, 132, 180, 252, 372}) b->Arg(n);
 }

@@ -105,9 +105,12 @@ class EmbreeManifold {
   /// Traversal::automatic to trace a scene by direct tests: 40 on a CPU with AVX2, else 24
   /// (detail::brute_force_automatic_limit).
   [[nodiscard]] static std::uint32_t brute_force_max_primitives() noexcept { return detail::brute_force_automatic_limit(); }
-  /// Traversal::automatic looks at the runs of scenes of at most this many triangles; larger
-  /// ones are traced by Embree whatever their runs.
-  [[nodiscard]] static std::uint32_t brute_force_max_scanned_triangles() noexcept { return 64 * brute_force_max_primitives(); }
+  /// The runs (and expected_direct_tests()) of scenes of at most this many triangles are worked
+  /// out; larger ones are traced by Embree. A run holds at most brute_force_chunk entries and
+  /// costs a query at least one test, so above this count no scene comes within the limit.
+  [[nodiscard]] static std::uint32_t brute_force_max_scanned_triangles() noexcept {
+    return std::uint32_t(detail::brute_force_chunk) * brute_force_max_primitives();
+  }
 
   struct Description {
     std::vector<Mesh> meshes;
@@ -126,15 +129,15 @@ class EmbreeManifold {
         data_(std::make_unique<detail::EmbreeSceneData<T>>()) {
     load(description);
     build(device_config);
-    const bool scanned = description.traversal == Traversal::brute_force ||
-                         (description.traversal == Traversal::automatic && triangle_count() <= brute_force_max_scanned_triangles());
+    const bool scanned = description.traversal == Traversal::brute_force || triangle_count() <= brute_force_max_scanned_triangles();
     expected_direct_tests_ = double(primitive_count());
     if (scanned) {
       direct_triangles_ = detail::brute_force_triangles(*data_);
       expected_direct_tests_ = double(sphere_count()) + direct_triangles_.expected_tests;
     }
     brute_force_ = description.traversal == Traversal::brute_force ||
-                   (scanned && expected_direct_tests_ <= double(brute_force_max_primitives()));
+                   (description.traversal == Traversal::automatic && scanned &&
+                    expected_direct_tests_ <= double(brute_force_max_primitives()));
     if (!brute_force_) direct_triangles_ = {};
   }
 
@@ -158,13 +161,15 @@ class EmbreeManifold {
     if (id >= data_->cdf.size()) return T(0);
     return T(data_->cdf[id] - (id == 0 ? 0.0 : data_->cdf[id - 1]));
   }
-  /// Whether queries test every primitive directly (Traversal::brute_force, or automatic on a
-  /// small scene) rather than through Embree's traversal.
+  /// Whether queries test every primitive directly (Traversal::brute_force, or automatic where
+  /// expected_direct_tests() is within the limit) rather than through Embree's traversal.
   [[nodiscard]] bool brute_force() const noexcept { return brute_force_; }
-  /// The primitive tests a direct query is expected to make: the spheres, the triangles of the
-  /// unbounded runs, and per bounded run its box test and its triangles times the chance that a
-  /// ray meets its box (detail::brute_force_expected_tests). primitive_count() for a scene
-  /// automatic traversal did not scan (above brute_force_max_scanned_triangles()).
+  /// The primitive tests a direct query is expected to make, whatever the traversal: the
+  /// spheres, the entries of the unbounded runs (padding to whole lanes included), and per
+  /// bounded run its box test and its triangles times the chance that a ray meets its box
+  /// (detail::brute_force_expected_tests). primitive_count() above
+  /// brute_force_max_scanned_triangles() (unless Traversal::brute_force), where the runs are not
+  /// worked out.
   [[nodiscard]] double expected_direct_tests() const noexcept { return expected_direct_tests_; }
   /// Whether sample_area can draw points: the total area is positive.
   [[nodiscard]] bool can_sample_area() const noexcept { return data_->total_area > 0; }

@@ -1,5 +1,5 @@
-// EmbreeManifold's traversal for scenes of a couple of dozen primitives: every primitive is
-// tested directly, in double, with the same exact tests the callbacks apply to Embree's
+// EmbreeManifold's traversal for scenes whose queries make a few dozen primitive tests: every
+// primitive is tested directly, in double, with the same exact tests the callbacks apply to Embree's
 // candidates (exact_callbacks.hpp). At that size a closest hit and a visibility query together
 // cost less than through Embree's traversal, whose per-ray set-up and indirect callbacks a tiny
 // BVH does not repay (docs/figures.md). Consecutive triangles that stay within a small box (a
@@ -367,10 +367,11 @@ template <Real T>
 }
 #endif
 
-/// The largest scene EmbreeManifold's automatic traversal traces by direct tests: about where
+/// The most tests a query may be expected to make (brute_force_expected_tests, the spheres
+/// added) for EmbreeManifold's automatic traversal to trace a scene by direct tests: about where
 /// a closest hit plus a visibility query cost the same as through Embree's traversal
-/// (bench/renderer/embree_traversal_bench.cpp, docs/figures.md), 40 primitives with AVX2's 4
-/// double lanes, 24 with 2.
+/// (bench/renderer/embree_traversal_bench.cpp, docs/figures.md), 40 with AVX2's 4 double lanes,
+/// 24 with 2.
 [[nodiscard]] inline std::uint32_t brute_force_automatic_limit() noexcept {
 #if defined(__AVX2__)
   return 40;
