@@ -42,8 +42,7 @@ M::Description scene(std::uint32_t primitives, Clutter kind, M::Traversal traver
   auto u = [&] { return rng.uniform<T>(); };
   M::Mesh clutter;
   if (kind == Clutter::boxes) {
-    for (std::uint32_t k = 12; k + 12 <= primitives; k += 12)
-    {
+    for (std::uint32_t k = 12; k + 12 <= primitives; k += 12) {
       const V c(T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u(), T(0.15) + T(0.7) * u());
       segpath::append_box<T>(clutter, c - T(0.04), c + T(0.04), segpath::BoxFacing::outwards);
     }

@@ -1,6 +1,6 @@
 // EmbreeManifold's traversal for scenes whose queries make a few dozen primitive tests: every
-// primitive is tested directly, in double, with the same exact tests the callbacks apply to Embree's
-// candidates (exact_callbacks.hpp). At that size a closest hit and a visibility query together
+// primitive is tested directly, in double, with the same exact tests the callbacks apply to
+// Embree's candidates (exact_callbacks.hpp). At that size a closest hit and a visibility query together
 // cost less than through Embree's traversal, whose per-ray set-up and indirect callbacks a tiny
 // BVH does not repay (docs/figures.md). Consecutive triangles that stay within a small box (a
 // light fixture, an object's mesh) are skipped by one box test where a ray misses that box.
