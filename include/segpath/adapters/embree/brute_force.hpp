@@ -1,8 +1,8 @@
 // EmbreeManifold's traversal for scenes whose queries make a few dozen primitive tests: every
 // primitive is tested directly, in double, with the same exact tests the callbacks apply to
-// Embree's candidates (exact_callbacks.hpp). At that size a closest hit and a visibility query together
-// cost less than through Embree's traversal, whose per-ray set-up and indirect callbacks a tiny
-// BVH does not repay (docs/figures.md). Consecutive triangles that stay within a small box (a
+// Embree's candidates (exact_callbacks.hpp). At that size a closest hit and a visibility query
+// together cost less than through Embree's traversal, whose per-ray set-up and indirect
+// callbacks a tiny BVH does not repay (docs/figures.md). Consecutive triangles that stay within a small box (a
 // light fixture, an object's mesh) are skipped by one box test where a ray misses that box.
 #pragma once
 
@@ -89,6 +89,12 @@ inline constexpr double brute_force_box_margin = 0x1p-24;
 /// about one triangle's.
 inline constexpr double brute_force_bounded_area_share = 0.25;
 
+/// The surface area of the box [lower, upper] (0 where it is empty).
+[[nodiscard]] inline double brute_force_box_area(const Vec3<double>& lower, const Vec3<double>& upper) noexcept {
+  const Vec3<double> e = glm::max(upper - lower, Vec3<double>(0));
+  return 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
+}
+
 /// A run's box test, in triangle tests: what one box costs a query against what one triangle
 /// does (bench/renderer/embree_traversal_bench.cpp; docs/figures.md, session 41).
 inline constexpr double brute_force_box_test_cost = 1.0;
@@ -104,8 +110,7 @@ inline constexpr double brute_force_box_test_cost = 1.0;
       tests += run.count;
       continue;
     }
-    const Vec3<double> e = glm::max(run.upper - run.lower, Vec3<double>(0));
-    const double share = scene_area > 0 ? std::min(1.0, 2 * (e.x * e.y + e.y * e.z + e.z * e.x) / scene_area) : 1.0;
+    const double share = scene_area > 0 ? std::min(1.0, brute_force_box_area(run.lower, run.upper) / scene_area) : 1.0;
     tests += brute_force_box_test_cost + run.count * share;
   }
   return tests;
@@ -125,10 +130,7 @@ inline void brute_force_group_runs(BruteForceTriangles& tris, const std::vector<
   using V = Vec3<double>;
   using Run = BruteForceTriangles::Run;
   const std::size_t n = tris.size();
-  auto area = [](const V& lo, const V& hi) {
-    const V e = glm::max(hi - lo, V(0));
-    return 2 * (e.x * e.y + e.y * e.z + e.z * e.x);
-  };
+  const auto area = brute_force_box_area;
   tris.runs.clear();
   tris.expected_tests = 0;
   if (n == 0) return;
