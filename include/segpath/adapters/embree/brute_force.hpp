@@ -2,8 +2,9 @@
 // primitive is tested directly, in double, with the same exact tests the callbacks apply to
 // Embree's candidates (exact_callbacks.hpp). At that size a closest hit and a visibility query
 // together cost less than through Embree's traversal, whose per-ray set-up and indirect
-// callbacks a tiny BVH does not repay (docs/figures.md). Consecutive triangles that stay within a small box (a
-// light fixture, an object's mesh) are skipped by one box test where a ray misses that box.
+// callbacks a tiny BVH does not repay (docs/figures.md). Consecutive triangles that stay within
+// a small box (a light fixture, an object's mesh) are skipped by one box test where a ray
+// misses that box.
 #pragma once
 
 #include "segpath/adapters/embree/exact_callbacks.hpp"
@@ -130,30 +131,30 @@ inline void brute_force_group_runs(BruteForceTriangles& tris, const std::vector<
   using V = Vec3<double>;
   using Run = BruteForceTriangles::Run;
   const std::size_t n = tris.size();
-  const auto area = brute_force_box_area;
   tris.runs.clear();
   tris.expected_tests = 0;
   if (n == 0) return;
   V scene_lo = lower[0], scene_hi = upper[0];
   for (std::size_t k = 1; k < n; ++k) scene_lo = glm::min(scene_lo, lower[k]), scene_hi = glm::max(scene_hi, upper[k]);
-  const double limit = brute_force_bounded_area_share * area(scene_lo, scene_hi);
+  const double scene_area = brute_force_box_area(scene_lo, scene_hi);
+  const double limit = brute_force_bounded_area_share * scene_area;
   const V extent = scene_hi - scene_lo, largest = glm::max(glm::abs(scene_lo), glm::abs(scene_hi));
   const double margin = brute_force_box_margin * (std::max({extent.x, extent.y, extent.z}) + std::max({largest.x, largest.y, largest.z}));
   // The runs as cut: each stretch of small boxes greedily, one run per stretch of large ones.
   std::vector<Run> cut;
   for (std::size_t k = 0, end = 0; k < n; k = end) {
-    Run run{std::uint32_t(k), 0, area(lower[k], upper[k]) <= limit, lower[k], upper[k]};
+    Run run{std::uint32_t(k), 0, brute_force_box_area(lower[k], upper[k]) <= limit, lower[k], upper[k]};
     end = k + 1;
     if (run.bounded) {
       for (; end < n && end - k < brute_force_chunk; ++end) {
         const V l = glm::min(run.lower, lower[end]), h = glm::max(run.upper, upper[end]);
-        if (area(l, h) > limit) break;
+        if (brute_force_box_area(l, h) > limit) break;
         run.lower = l, run.upper = h;
       }
       run.lower -= margin;
       run.upper += margin;
     } else {
-      while (end < n && area(lower[end], upper[end]) > limit) ++end;
+      while (end < n && brute_force_box_area(lower[end], upper[end]) > limit) ++end;
     }
     run.count = std::uint32_t(end - k);
     cut.push_back(run);
@@ -187,7 +188,7 @@ inline void brute_force_group_runs(BruteForceTriangles& tris, const std::vector<
     run.count = std::uint32_t(padded.size() - first);
     padded.runs.push_back(run);
   }
-  padded.expected_tests = brute_force_expected_tests(padded.runs, area(scene_lo, scene_hi));
+  padded.expected_tests = brute_force_expected_tests(padded.runs, scene_area);
   tris = std::move(padded);
 }
 
