@@ -6,6 +6,7 @@
 #pragma once
 
 #include "segpath/core/parallel.hpp"
+#include "segpath/core/radix_sort.hpp"
 #include "segpath/core/segment.hpp"
 #include "segpath/propagation/junction_support.hpp"
 #include "segpath/kernels/voxel.hpp"
@@ -60,42 +61,6 @@ struct Cluster {
   /// The slot of ending ref r in [middle, end): the refs before it less the starting ones.
   [[nodiscard]] std::uint32_t ending_slot(std::uint32_t r) const noexcept { return r - slot - (middle - begin); }
 };
-
-namespace detail {
-
-/// Stable LSD radix sort of `data` by bits [lo, lo + bits) of word(e), ping-ponging with
-/// `scratch` (same size); digits of at most 11 bits, passes whose digit is constant skipped.
-/// Returns the span (data or scratch) that holds the sorted sequence.
-template <class E, class Word>
-std::span<E> radix_sort(std::span<E> data, std::span<E> scratch, unsigned lo, unsigned bits, const Word& word,
-                        std::vector<std::uint32_t>& counts) {
-  const std::size_t n = data.size();
-  if (bits == 0 || n < 2) return data;
-  const unsigned max_width = n < (std::size_t(1) << 16) ? 8 : 11;
-  const unsigned passes = (bits + max_width - 1) / max_width;
-  const unsigned width = (bits + passes - 1) / passes;
-  const std::size_t radix = std::size_t(1) << width;
-  const std::uint64_t mask = radix - 1;
-  counts.assign(passes * radix, 0);
-  for (const E& e : data) {
-    std::uint64_t w = word(e) >> lo;
-    for (unsigned p = 0; p < passes; ++p, w >>= width) ++counts[p * radix + (w & mask)];
-  }
-  E* src = data.data();
-  E* dst = scratch.data();
-  for (unsigned p = 0; p < passes; ++p) {
-    const unsigned shift = lo + p * width;
-    std::uint32_t* c = counts.data() + p * radix;
-    if (c[(word(src[0]) >> shift) & mask] == n) continue;
-    std::uint32_t sum = 0;
-    for (std::size_t d = 0; d < radix; ++d) sum += std::exchange(c[d], sum);
-    for (std::size_t i = 0; i < n; ++i) dst[c[(word(src[i]) >> shift) & mask]++] = src[i];
-    std::swap(src, dst);
-  }
-  return {src, n};
-}
-
-}  // namespace detail
 
 /// The clusters of one iteration, a JunctionSupport (propagation/junction_support.hpp) whose
 /// groups are the clusters. Memory: three ids per segment and one per slot, O(#segments);
@@ -344,8 +309,8 @@ class Clustering {
       auto scratch = std::make_unique_for_overwrite<std::uint64_t[]>(count);
       note_peak(2 * count * sizeof(std::uint64_t));
       const auto sorted =
-          detail::radix_sort(std::span<std::uint64_t>(codes.get(), count), std::span<std::uint64_t>(scratch.get(), count),
-                             segment_bits, code_bits, [](std::uint64_t w) { return w; }, counts_);
+          radix_sort(std::span<std::uint64_t>(codes.get(), count), std::span<std::uint64_t>(scratch.get(), count),
+                     segment_bits, code_bits, [](std::uint64_t w) { return w; }, counts_, parallel_for);
       if (sorted.data() == codes.get()) scratch.reset(); else codes.reset();
       const std::uint64_t segment_mask = (std::uint64_t(1) << segment_bits) - 1;
       refs_.resize(count);
@@ -361,8 +326,8 @@ class Clustering {
       gather_codes(parallel_for, [&](const EndpointRef& r) { return WideCode{code_of(r), r.segment}; }, codes.get());
       note_peak(2 * count * sizeof(WideCode));
       const auto sorted =
-          detail::radix_sort(std::span<WideCode>(codes.get(), count), std::span<WideCode>(scratch.get(), count), 0,
-                             code_bits, [](const WideCode& w) { return w.code; }, counts_);
+          radix_sort(std::span<WideCode>(codes.get(), count), std::span<WideCode>(scratch.get(), count), 0,
+                     code_bits, [](const WideCode& w) { return w.code; }, counts_, parallel_for);
       refs_.resize(count);
       parallel_for(decode_chunks, [&](std::size_t c) {
         const std::size_t e = std::min(count, (c + 1) * ref_chunk);
