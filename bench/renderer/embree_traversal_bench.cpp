@@ -6,7 +6,7 @@
 // points on the room's surfaces in cosine-ish random directions (intersect), and visibility
 // between two such points. Each scene reports its expected direct tests
 // (EmbreeManifold::expected_direct_tests()); where the per-query times cross is what
-// EmbreeManifold::brute_force_max_primitives() should be (docs/figures.md).
+// EmbreeManifold::brute_force_max_expected_tests() should be (docs/figures.md).
 //   build/bench/renderer/bench_renderer_embree_traversal_bench
 #include <benchmark/benchmark.h>
 

@@ -848,13 +848,18 @@ TEMPLATE_TEST_CASE("EmbreeManifold: the direct traversal finds what Embree's fin
   shelf.triangles = {{0, 1, 2}, {2, 3, 0}};
   desc.meshes.push_back(shelf);
 
-  // The automatic choice: direct tests up to brute_force_max_primitives() expected tests, Embree above.
-  CHECK(M(desc).brute_force() == (M(desc).expected_direct_tests() <= M::brute_force_max_primitives()));
+  // The automatic choice: direct tests up to brute_force_max_expected_tests() expected tests, Embree above.
+  CHECK(M(desc).brute_force() == (M(desc).expected_direct_tests() <= M::brute_force_max_expected_tests()));
   typename M::Description big;
-  for (std::uint32_t k = 0; k <= M::brute_force_max_primitives(); ++k) big.spheres.push_back({Vec3<T>(T(3 * k), 0, 0), T(1), 0});
+  for (std::uint32_t k = 0; k <= M::brute_force_max_expected_tests(); ++k) big.spheres.push_back({Vec3<T>(T(3 * k), 0, 0), T(1), 0});
   CHECK_FALSE(M(big).brute_force());
   big.spheres.pop_back();
   CHECK(M(big).brute_force());
+  // The limit's old name still answers, deprecated.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+  CHECK(M::brute_force_max_primitives() == M::brute_force_max_expected_tests());
+#pragma GCC diagnostic pop
 
   const int n = 20'000;
   const auto small = compare_traversals<T>(desc, offset, n, 21);
@@ -876,7 +881,7 @@ TEMPLATE_TEST_CASE("EmbreeManifold: the direct traversal finds what Embree's fin
       bumps.triangles.push_back({k + 8, k + 7, k});
     }
   desc.meshes.push_back(bumps);
-  REQUIRE(M(desc).primitive_count() > 2 * M::brute_force_max_primitives());
+  REQUIRE(M(desc).primitive_count() > 2 * M::brute_force_max_expected_tests());
   const auto large = compare_traversals<T>(desc, offset, n / 2, 22);
   CHECK(large.different == 0);
   CHECK(large.shading == 0);
@@ -990,7 +995,7 @@ TEST_CASE("EmbreeManifold: the automatic traversal counts the tests a query make
   REQUIRE(compact.primitive_count() == 72);
   CHECK(compact.primitive_count() > 40);  // the largest limit
   INFO("expected tests " << compact.expected_direct_tests());
-  CHECK(compact.expected_direct_tests() <= M::brute_force_max_primitives());
+  CHECK(compact.expected_direct_tests() <= M::brute_force_max_expected_tests());
   CHECK(compact.expected_direct_tests() >= 12);  // the walls at least
   CHECK(compact.brute_force());
   const auto c = compare_traversals<T>(boxes, V(T(0.5)), 4000, 31);
@@ -1028,7 +1033,7 @@ TEST_CASE("EmbreeManifold: the automatic traversal counts the tests a query make
   padded.spheres.push_back({V(T(0.5)), T(0.1), 0});
   padded.spheres.push_back({V(T(0.3)), T(0.1), 0});
   CHECK(M(padded).expected_direct_tests() == 38);
-  CHECK(M(padded).brute_force() == (M::brute_force_max_primitives() >= 38));
+  CHECK(M(padded).brute_force() == (M::brute_force_max_expected_tests() >= 38));
   for (int k = 0; k < 3; ++k) padded.spheres.push_back({V(T(0.7)), T(0.05), 0});
   CHECK(M(padded).primitive_count() == 38);  // within 40 primitives, but 41 tests
   CHECK(M(padded).expected_direct_tests() == 41);

@@ -63,7 +63,7 @@ namespace segpath {
 /// and visible, but area() is 0 and sample_area() always returns nullopt; check
 /// can_sample_area() before handing it to an estimator that samples by area.
 ///
-/// Traversal: a scene whose queries are expected to make at most brute_force_max_primitives()
+/// Traversal: a scene whose queries are expected to make at most brute_force_max_expected_tests()
 /// primitive tests (expected_direct_tests()) is traced, by default, without Embree's traversal:
 /// every primitive is tested directly with the same exact tests (adapters/embree/brute_force.hpp),
 /// but for the runs of compact triangles whose box a ray misses; at that cost this is faster.
@@ -97,19 +97,24 @@ class EmbreeManifold {
   };
   /// How queries find their candidates (see the class comment).
   enum class Traversal : std::uint8_t {
-    automatic,    ///< brute_force up to brute_force_max_primitives() expected tests, else embree
+    automatic,    ///< brute_force up to brute_force_max_expected_tests() expected tests, else embree
     embree,       ///< Embree's BVH proposes candidates, the exact callbacks accept them
     brute_force,  ///< every primitive is tested exactly
   };
   /// The most primitive tests a query may be expected to make (expected_direct_tests()) for
   /// Traversal::automatic to trace a scene by direct tests: 40 on a CPU with AVX2, else 24
   /// (detail::brute_force_automatic_limit).
-  [[nodiscard]] static std::uint32_t brute_force_max_primitives() noexcept { return detail::brute_force_automatic_limit(); }
+  [[nodiscard]] static std::uint32_t brute_force_max_expected_tests() noexcept { return detail::brute_force_automatic_limit(); }
+  /// The limit's name before it counted expected tests instead of primitives.
+  [[deprecated("renamed brute_force_max_expected_tests(): the limit counts expected tests, not primitives")]] [[nodiscard]] static std::uint32_t
+  brute_force_max_primitives() noexcept {
+    return brute_force_max_expected_tests();
+  }
   /// The runs (and expected_direct_tests()) of scenes of at most this many triangles are worked
   /// out; larger ones are traced by Embree. A run holds at most brute_force_chunk entries and
   /// costs a query at least one test, so above this count no scene comes within the limit.
   [[nodiscard]] static std::uint32_t brute_force_max_scanned_triangles() noexcept {
-    return std::uint32_t(detail::brute_force_chunk) * brute_force_max_primitives();
+    return std::uint32_t(detail::brute_force_chunk) * brute_force_max_expected_tests();
   }
 
   struct Description {
@@ -137,7 +142,7 @@ class EmbreeManifold {
     }
     brute_force_ = description.traversal == Traversal::brute_force ||
                    (description.traversal == Traversal::automatic && scanned &&
-                    expected_direct_tests_ <= double(brute_force_max_primitives()));
+                    expected_direct_tests_ <= double(brute_force_max_expected_tests()));
     if (!brute_force_) direct_triangles_ = {};
   }
 
