@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <random>
 #include <span>
+#include <stdexcept>
 #include <vector>
 
 #include "support/catch.hpp"
@@ -45,6 +46,14 @@ std::vector<Item> radix_sorted(std::vector<Item> items, unsigned lo, unsigned bi
   return {sorted.begin(), sorted.end()};
 }
 
+/// Runs the chunks last to first: a result that depended on their order would show it.
+struct ReverseFor {
+  template <class Body>
+  void operator()(std::size_t n, Body&& body) const {
+    for (std::size_t i = n; i-- > 0;) body(i);
+  }
+};
+
 bool same(const std::vector<Item>& a, const std::vector<Item>& b) {
   return std::ranges::equal(a, b, [](const Item& x, const Item& y) { return x.key == y.key && x.index == y.index; });
 }
@@ -64,10 +73,11 @@ TEST_CASE("radix_sort gives std::stable_sort's order on one thread and on two", 
       {"one element", 1, 3, 20, 5},
       {"two elements", 2, 0, 20, 2},
       {"8-bit digits, many ties", 1000, 5, 20, 37},
-      {"11-bit digits, one chunk", 100000, 7, 40, 100000},
-      {"three chunks, a digit of its own width", 3 * radix_sort_chunk + 5, 0, 25, 5000},
+      {"one chunk, four 10-bit digits", 100000, 7, 40, 100000},
+      {"three chunks, the last digit narrower", 3 * radix_sort_chunk + 5, 0, 25, 5000},
       {"five chunks, many ties", 5 * radix_sort_chunk + 11, 13, 33, 300},
       {"all 64 bits", 4 * radix_sort_chunk, 0, 64, 1u << 20},
+      {"up to the word's top bit (the clustering's codes)", 3 * radix_sort_chunk, 20, 44, 70000},
       {"one value: every pass skipped", 3 * radix_sort_chunk, 2, 30, 1},
   };
   for (const Case& k : cases) {
@@ -79,17 +89,38 @@ TEST_CASE("radix_sort gives std::stable_sort's order on one thread and on two", 
                        [&](const Item& a, const Item& b) { return (a.key >> k.lo & field) < (b.key >> k.lo & field); });
       CHECK(same(radix_sorted(items, k.lo, k.bits, SerialFor{}), expected));
       CHECK(same(radix_sorted(items, k.lo, k.bits, segpath::testing::TwoThreadFor{}), expected));
+      CHECK(same(radix_sorted(items, k.lo, k.bits, ReverseFor{}), expected));
     }
   }
 }
 
-TEST_CASE("radix_sort ignores the bits outside its range and sorts nothing for zero bits", "[core]") {
-  // Keys that differ only above the sorted bits keep their order; with bits = 0 the input is
-  // returned as it is.
+TEST_CASE("radix_sort orders by its bits only, skips constant digits before and after moving ones", "[core]") {
+  // 21 bits in two passes of 11: the last digit is 10 bits wide, and key bit 21 (above the
+  // range) varies, so an unmasked last digit would order by it.
   std::vector<Item> items(3 * radix_sort_chunk);
-  for (std::size_t i = 0; i < items.size(); ++i) items[i] = {(std::uint64_t(items.size() - i) << 20) | (i % 7), std::uint32_t(i)};
+  for (std::size_t i = 0; i < items.size(); ++i)
+    items[i] = {(std::uint64_t(items.size() - i) << 21) | (i * 2654435761u % (1u << 21)), std::uint32_t(i)};
+  auto by_low_21 = [](const Item& a, const Item& b) { return (a.key & 0x1fffff) < (b.key & 0x1fffff); };
   auto expected = items;
-  std::stable_sort(expected.begin(), expected.end(), [](const Item& a, const Item& b) { return (a.key & 0xfffff) < (b.key & 0xfffff); });
-  CHECK(same(radix_sorted(items, 0, 20, segpath::testing::TwoThreadFor{}), expected));
+  std::stable_sort(expected.begin(), expected.end(), by_low_21);
+  CHECK(same(radix_sorted(items, 0, 21, segpath::testing::TwoThreadFor{}), expected));
+  CHECK(same(radix_sorted(items, 0, 21, SerialFor{}), expected));
+  // Keys (i % 7) << 11 over 33 bits (three 11-bit digits): the first digit is constant (skipped
+  // before the pass that moves), the third too (skipped after it).
+  for (std::size_t i = 0; i < items.size(); ++i) items[i] = {std::uint64_t(i % 7) << 11, std::uint32_t(i)};
+  expected = items;
+  std::stable_sort(expected.begin(), expected.end(), [](const Item& a, const Item& b) { return a.key < b.key; });
+  CHECK(same(radix_sorted(items, 0, 33, segpath::testing::TwoThreadFor{}), expected));
+  CHECK(same(radix_sorted(items, 0, 33, ReverseFor{}), expected));
+  // Zero bits: the input as it is.
   CHECK(same(radix_sorted(items, 0, 0, SerialFor{}), items));
+}
+
+TEST_CASE("radix_sort refuses bits beyond a 64-bit word", "[core]") {
+  std::vector<Item> items(4), scratch(4);
+  std::vector<std::uint32_t> counts;
+  const auto key = [](const Item& e) { return e.key; };
+  CHECK_THROWS_AS(radix_sort(std::span<Item>(items), std::span<Item>(scratch), 20, 45, key, counts), std::invalid_argument);
+  CHECK_THROWS_AS(radix_sort(std::span<Item>(items), std::span<Item>(scratch), 65, 0, key, counts), std::invalid_argument);
+  CHECK_NOTHROW(radix_sort(std::span<Item>(items), std::span<Item>(scratch), 20, 44, key, counts));
 }

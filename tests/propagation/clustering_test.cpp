@@ -202,12 +202,13 @@ TEMPLATE_TEST_CASE("radix-sorted clusters equal std::sort's, with 1 or 2 threads
     EndpointSort sort;
   };
   // Code bits: 3 * ceil(log2(range / cell)) + 4; the segment goes in the code's low bits when the
-  // sum with log2(n) fits in 64 bits, beside it otherwise; beyond 64 code bits, std::sort.
+  // sum with log2(n) fits in 64 bits, beside it otherwise; beyond 64 code bits, std::sort. Above
+  // 2 * radix_sort_chunk refs the sort runs in chunks (core/radix_sort.hpp).
   const Case cases[] = {
-      {"negative coordinates, 11-bit digits, several chunks", 40000, T(-7), T(3), T(0.05), 0.1, 0.2, EndpointSort::radix},
+      {"negative coordinates, 11-bit digits, two sort chunks", 80000, T(-7), T(3), T(0.05), 0.1, 0.2, EndpointSort::radix},
       {"8-bit digits, many duplicates", 3000, T(0), T(1), T(0.25), 0.05, 0.6, EndpointSort::radix},
       {"one voxel: only the normal bin and the end vary", 2000, T(0.75), T(0.1), T(1), 0.1, 0.0, EndpointSort::radix},
-      {"codes beside the segments (52 + 13 bits)", 5000, T(0), T(32000), T(1), 0.1, 0.3, EndpointSort::radix},
+      {"codes beside the segments (52 + 17 bits), two sort chunks", 80000, T(0), T(32000), T(1), 0.1, 0.3, EndpointSort::radix},
       {"huge ranges: the std::sort fallback", 5000, T(0), T(4e8), T(1), 0.1, 0.3, EndpointSort::comparison},
       {"no surface ends", 100, T(0), T(1), T(0.1), 1.0, 0.0, EndpointSort::radix},
       {"empty pool", 0, T(0), T(1), T(0.1), 0.0, 0.0, EndpointSort::radix},

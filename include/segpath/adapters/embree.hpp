@@ -106,10 +106,8 @@ class EmbreeManifold {
   /// (detail::brute_force_automatic_limit).
   [[nodiscard]] static std::uint32_t brute_force_max_expected_tests() noexcept { return detail::brute_force_automatic_limit(); }
   /// The limit's name before it counted expected tests instead of primitives.
-  [[deprecated("renamed brute_force_max_expected_tests(): the limit counts expected tests, not primitives")]] [[nodiscard]] static std::uint32_t
-  brute_force_max_primitives() noexcept {
-    return brute_force_max_expected_tests();
-  }
+  [[deprecated("renamed brute_force_max_expected_tests(): it counts expected tests, not primitives")]]
+  [[nodiscard]] static std::uint32_t brute_force_max_primitives() noexcept { return brute_force_max_expected_tests(); }
   /// The runs (and expected_direct_tests()) of scenes of at most this many triangles are worked
   /// out; larger ones are traced by Embree. A run holds at most brute_force_chunk entries and
   /// costs a query at least one test, so above this count no scene comes within the limit.
