@@ -30,9 +30,9 @@ inline constexpr std::size_t radix_sort_max_chunks = 64;
 /// std::length_error). Returns the span (of data or scratch) that holds the sorted sequence.
 ///
 /// Each pass counts its digit afresh, chunk by chunk: one read per pass more than a serial sort
-/// that counts every digit at once, which with two threads still took less time than it
-/// (counting every digit in one read and counting again only after a moving pass was slower:
-/// docs/figures.md, session 43).
+/// that counts every digit at once. In the clustering on two threads the whole sort still took
+/// less time than that serial one; counting every digit in one read, and again only after a
+/// pass that moved the elements, was slower (docs/figures.md, session 43).
 template <class E, class Word, ParallelFor P = SerialFor>
 std::span<E> radix_sort(std::span<E> data, std::span<E> scratch, unsigned lo, unsigned bits, const Word& word,
                         std::vector<std::uint32_t>& counts, const P& parallel_for = {}) {
