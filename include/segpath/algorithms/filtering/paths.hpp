@@ -175,9 +175,10 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   // glass to the sky), whose density would need the chain's disk point: where camera successors
   // draw (MVF, BDPF) it ends the light path and camera chains carry it; where they do not (PhF)
   // only the light start draws it, and it is kept like a Dirac chain. Through delta
-  // transmissions too: where the chain's two ends lie in one medium (both outside a glass
-  // object), its importance throughput is its radiance throughput (the (eta_i / eta_t)^2 of
-  // each refraction cancel in and out) and the etendue's n^2 cancels; docs/filtering.md.
+  // transmissions too: between two media the radiance throughput is (n_x / n_y)^2 times the
+  // importance throughput, and light_measure leaves the same factor out of the light side's
+  // densities, so each light technique's f / p stays exact and the balance weights still sum
+  // to one (docs/filtering.md, "Known limits").
   const bool sky_chain = !first->delta && r.segment.y.kind == PointKind::direction && !ctx.techniques.camera_successors;
   bool kept = first->delta || sky_chain;  // a chain of the light start's own would be a kept_chain
   bool chains = kept || r.segment.y.kind == PointKind::surface;

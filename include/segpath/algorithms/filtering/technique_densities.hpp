@@ -45,8 +45,9 @@ template <LightSampledScene Scn>
   return (pool.flags[s] & chain_segment) ? T(1) : CameraSuccessor<Scn>::area_jacobian(pool.segments[s]);
 }
 /// Area x solid angle at y (light techniques) to the segment's measure: area at x for a plain
-/// segment; for a chain, area x solid angle at x, through mirrors by the conservation of
-/// etendue, cos_y dA_y dw_y = cos_x dA_x dw_x: cos_x / cos_y. (With Fresnel-selected delta
+/// segment; for a chain, area x solid angle at x, by the conservation of etendue, n_y^2 cos_y
+/// dA_y dw_y = n_x^2 cos_x dA_x dw_x, without the (n_x / n_y)^2 that a light-born chain's
+/// importance throughput leaves out too (trace_light_path): cos_x / cos_y. (With Fresnel-selected delta
 /// reflections both sides pick the same lobe with the same probability, so the selection
 /// factors, left out of every density of a chain, agree.)
 template <LightSampledScene Scn>
