@@ -438,3 +438,32 @@ TEST_CASE("the compact emission of a slot is conditioned_emission bit for bit, a
       }
   CHECK(differ == 0);
 }
+
+TEST_CASE("path-conditioned propagation rejects bridge inputs of the wrong size and a factorised group that starts a target",
+          "[propagation]") {
+  std::vector<Segment<double>> segments(2, Segment<double>{SurfacePoint<double>::on_surface({0, 0, 0}, {0, 0, 1}),
+                                                           SurfacePoint<double>::on_surface({0.1, 0, 0}, {0, 0, 1})});
+  Clustering<double> clustering;
+  clustering.build(VoxelGrid<double>(1.0), segments);
+  std::vector<double> two(2, 1.0), one(1, 1.0);
+  std::vector<std::uint32_t> terms(2, 1);
+  std::vector<std::uint8_t> flags(2, 0), targets(2, conditioned_bridge_target);
+  auto link = [](std::uint32_t, std::uint32_t) { return 0.5; };
+  auto light_pair = [](std::uint32_t, std::uint32_t) { return 0.0; };
+  using Inputs = ConditionedInputs<double, decltype(link), decltype(light_pair)>;
+  std::vector<double> out;
+  const Inputs short_share{two, two, two, two, terms, two, flags, link, light_pair, {}, one, one};
+  CHECK_THROWS_AS(propagate_conditioned(clustering, short_share, 2, out), std::invalid_argument);
+  const Inputs unpaired{two, two, two, two, terms, two, flags, link, light_pair, {}, two, {}};
+  CHECK_THROWS_AS(propagate_conditioned(clustering, unpaired, 2, out), std::invalid_argument);
+  const Inputs with_targets{two, two, two, two, terms, two, targets, link, light_pair, {}, two, two};
+  CHECK_NOTHROW(propagate_conditioned(clustering, with_targets, 2, out));
+  const std::vector<std::uint8_t> factorised(clustering.clusters().size(), 1);
+  const std::vector<double> diffuse(2, 0.5);
+  CHECK_THROWS_AS(propagate_conditioned(clustering, with_targets, 2, out, SerialFor{}, std::span<const std::uint8_t>(factorised),
+                                        std::span<const double>(diffuse)),
+                  std::invalid_argument);
+  const Inputs no_bridges{two, two, two, two, terms, two, targets, link, light_pair};
+  CHECK_NOTHROW(propagate_conditioned(clustering, no_bridges, 2, out, SerialFor{}, std::span<const std::uint8_t>(factorised),
+                                      std::span<const double>(diffuse)));
+}

@@ -184,8 +184,9 @@ class SegmentFiltering {
         filtering::propagate_conditioned_pool(ctx, clustering, side, iterations, radiance, weighted_geometry, parallel_for,
                                               filtering::PoolGeometry::release);
         // The propagation's arrays, and diffuse when factorising.
-        propagation_bytes = filtering::conditioned_bytes_per_segment<S> + (options_.factorise ? sizeof(S) : 0);
-        after_release = filtering::conditioned_bytes_after_release<S> + (stats.lagged_bytes + stats.forced_value_bytes) / n;
+        propagation_bytes = filtering::conditioned_bytes_per_segment<S> + (options_.factorise ? sizeof(S) : 0) + bridge_bytes(side);
+        after_release =
+            filtering::conditioned_bytes_after_release<S> + bridge_bytes(side) + (stats.lagged_bytes + stats.forced_value_bytes) / n;
       } else {
         filtering::propagate_pool(ctx, clustering, iterations, radiance, weighted_geometry, parallel_for,
                                   filtering::PoolGeometry::release);
@@ -199,13 +200,13 @@ class SegmentFiltering {
       filtering::join(ctx, filtering::disk_radius(cell), junctions, parallel_for);
       stats.junctions = junctions.junction_count();
       lap(stats.support_seconds);
-      filtering::compute_densities(ctx, junctions, parallel_for);
+      filtering::compute_densities(ctx, junctions, parallel_for, conditioned ? &side : nullptr);
       if (conditioned) filtering::light_side(ctx, junctions, side, parallel_for);
       lap(stats.densities_seconds);
       support_bytes = junctions.bytes_per_segment();
       if (conditioned) {
         filtering::propagate_conditioned_pool(ctx, junctions, side, iterations, radiance, weighted_geometry, parallel_for);
-        propagation_bytes = filtering::conditioned_bytes_per_segment<S>;
+        propagation_bytes = filtering::conditioned_bytes_per_segment<S> + bridge_bytes(side);
       } else {
         filtering::propagate_pool(ctx, junctions, iterations, radiance, weighted_geometry, parallel_for);
         propagation_bytes = PropagationWorkspace<S>::bytes_per_segment;
@@ -229,6 +230,12 @@ class SegmentFiltering {
   }
 
  private:
+  /// What the bridges add to the path-conditioned propagation per segment: their share and
+  /// density in `side`, and the junctions' copy per ending slot (none without bridges).
+  static std::size_t bridge_bytes(const filtering::LightSide<T>& side) noexcept {
+    return side.bridge_share.empty() ? 0 : 2 * sizeof(T) + sizeof(detail::ConditionedBridgeEnd<T>);
+  }
+
   template <class Smp>
   static void check_technique(const FilteringTechnique<Smp>& t) {
     if (!(t.per_pixel > 0) || !std::isfinite(t.per_pixel))

@@ -17,6 +17,8 @@ namespace segpath {
 inline constexpr std::uint8_t conditioned_light_born = 1;       ///< drawn by a light-side technique
 inline constexpr std::uint8_t conditioned_light_technique = 2;  ///< a light predecessor draw was attempted from x
 inline constexpr std::uint8_t conditioned_potential = 4;        ///< x could be a light technique point (implied by 2)
+inline constexpr std::uint8_t conditioned_bridge_born = 8;       ///< drawn by a bridge (a technique of both sides)
+inline constexpr std::uint8_t conditioned_bridge_target = 16;    ///< x could be the end a bridge draws
 
 /// The four suffix sums of a segment (path_conditioned.hpp's header comment).
 template <Spectrum S>
@@ -33,6 +35,14 @@ struct ConditionedEnd {
   T light = 0, rest = 0;  ///< D_l(s), D(s) - D_l(s)
   std::uint32_t terms = 0;
   std::uint8_t flags = 0;
+};
+
+/// What a junction reads of an ending segment s about bridges (none: zeros): q_b(s), the term
+/// one bridge target starting near y_s adds to s's bridge density B(s), and for a bridge-born s
+/// q_b(s) / B(s), the share of its own density that its successor takes when it is a target.
+template <Real T>
+struct ConditionedBridgeEnd {
+  T share = 0, own_share = 0;
 };
 
 /// What a junction reads of its starting segment s', gathered once per pool.
@@ -71,12 +81,18 @@ struct ClassJunctions {
 
 /// The junction s -> s' (transfer = K f_r(s, s') G(s')) for s' with flags fp and 1 / D_lt(s')
 /// (where read forced) and q_l(s | s') = ql: the r_i and e(s) rules of the header comment.
+/// A bridge target s' leaves s's bridge density as a light technique sample leaves D_l: G and
+/// a bridge-born s's alpha use B'(s) = B(s) - q_b(s), whatever side s' was born on.
 template <Spectrum S>
 SEGPATH_FORCE_INLINE ConditionedJunction<S> conditioned_coefficients(const ConditionedEnd<spectrum_scalar_t<S>>& end, std::uint8_t fp,
                                                                      spectrum_scalar_t<S> forced_weight, const S& transfer,
-                                                                     spectrum_scalar_t<S> ql) noexcept {
+                                                                     spectrum_scalar_t<S> ql,
+                                                                     const ConditionedBridgeEnd<spectrum_scalar_t<S>>& bridge = {}) noexcept {
   using T = spectrum_scalar_t<S>;
   const bool light_born = end.flags & conditioned_light_born;
+  const bool bridge_excluded = (fp & conditioned_bridge_target) && bridge.share > T(0);
+  const T rest = bridge_excluded ? std::max(T(0), end.rest - bridge.share) : end.rest;
+  const T own = bridge_excluded && (end.flags & conditioned_bridge_born) ? T(1) - bridge.own_share : T(1);
   const bool successor_technique = fp & conditioned_light_technique;
   if (!(fp & conditioned_potential)) ql = T(0);
   const bool excluded = successor_technique && ql > T(0);
@@ -88,12 +104,12 @@ SEGPATH_FORCE_INLINE ConditionedJunction<S> conditioned_coefficients(const Condi
   ConditionedJunction<S> j{forced ? transfer * forced_weight : transfer, {}, std::uint8_t(forced ? 1 : 0)};
   for (int e_next = 0; e_next < 2; ++e_next) {
     const int e = (terms > 0 || (ql > T(0) && e_next == 1)) ? 1 : 0;
-    const T g = end.rest + (e ? lambda : T(0));
+    const T g = rest + (e ? lambda : T(0));
     T r = T(0);
     if (light_born) {
       if (e && g > T(0) && dl > T(0)) r = lambda / (g * dl);
     } else if (g > T(0)) {
-      r = T(1) / g;
+      r = own / g;  // a bridge-born s: B'(s) / (G B(s))
     }
     j.r[e_next] = r;
     j.code |= std::uint8_t(e << (1 + e_next));
