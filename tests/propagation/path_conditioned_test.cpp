@@ -23,6 +23,7 @@ struct RandomSides {
   std::vector<std::uint32_t> terms;
   std::vector<std::uint8_t> flags;
   std::vector<double> link_table, light_table;  // per ordered pair
+  std::vector<double> bridge_share, bridge_density;  // empty: no bridges
   std::size_t n = 0;
   [[nodiscard]] double link(std::uint32_t s, std::uint32_t sp) const { return link_table[s * n + sp]; }
   [[nodiscard]] double light_pair(std::uint32_t s, std::uint32_t sp) const { return light_table[s * n + sp]; }
@@ -31,7 +32,21 @@ struct RandomSides {
     auto by_link = [this](std::uint32_t s, std::uint32_t sp) { return link(s, sp); };
     auto by_light_pair = [this](std::uint32_t s, std::uint32_t sp) { return light_pair(s, sp); };
     return ConditionedInputs<double, decltype(by_link), decltype(by_light_pair)>{
-        emitted, geometry, density, light, terms, light_technique, flags, by_link, by_light_pair};
+        emitted, geometry, density, light, terms, light_technique, flags, by_link, by_light_pair, {}, bridge_share, bridge_density};
+  }
+  /// Bridges: some segments not light-born are bridge-born, the light technique samples are the
+  /// targets, and a segment's bridge density is a random number of targets' shares.
+  void add_bridges(Pcg32& rng) {
+    bridge_share.assign(n, 0.0);
+    bridge_density.assign(n, 0.0);
+    for (std::size_t s = 0; s < n; ++s) {
+      if (!(flags[s] & conditioned_light_born) && rng.uniform<double>() < 0.5) flags[s] |= conditioned_bridge_born;
+      if (flags[s] & conditioned_light_technique) flags[s] |= conditioned_bridge_target;
+      if (rng.uniform<double>() < 0.3) continue;
+      bridge_share[s] = 0.1 + rng.uniform<double>();
+      bridge_density[s] = bridge_share[s] * double(1 + rng.next_u32() % 3);
+      density[s] += bridge_density[s];
+    }
   }
 };
 
@@ -338,6 +353,7 @@ TEST_CASE("path-conditioned propagation: factorised clusters give the general su
       factorised_clusters += s == clustering.ending_segments(c).front();
     }
     finish_densities(p, rng, [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; });
+    if (trial % 2 == 1) p.add_bridges(rng);
     const auto inputs = p.inputs();
     const int depth = 1 + int(rng.next_u32() % 4);
     std::vector<double> general, fast;
@@ -439,7 +455,8 @@ TEST_CASE("the compact emission of a slot is conditioned_emission bit for bit, a
   CHECK(differ == 0);
 }
 
-TEST_CASE("path-conditioned propagation rejects bridge inputs of the wrong size and a factorised group that starts a target",
+TEST_CASE("path-conditioned propagation rejects bridge inputs of the wrong size, and bridge targets that are not a factorised "
+          "group's light technique samples",
           "[propagation]") {
   std::vector<Segment<double>> segments(2, Segment<double>{SurfacePoint<double>::on_surface({0, 0, 0}, {0, 0, 1}),
                                                            SurfacePoint<double>::on_surface({0.1, 0, 0}, {0, 0, 1})});
@@ -447,7 +464,9 @@ TEST_CASE("path-conditioned propagation rejects bridge inputs of the wrong size 
   clustering.build(VoxelGrid<double>(1.0), segments);
   std::vector<double> two(2, 1.0), one(1, 1.0);
   std::vector<std::uint32_t> terms(2, 1);
-  std::vector<std::uint8_t> flags(2, 0), targets(2, conditioned_bridge_target);
+  const std::uint8_t technique = conditioned_light_technique | conditioned_potential | conditioned_light_born;
+  std::vector<std::uint8_t> flags(2, 0), targets(2, conditioned_bridge_target), techniques(2, technique),
+      technique_targets(2, std::uint8_t(technique | conditioned_bridge_target));
   auto link = [](std::uint32_t, std::uint32_t) { return 0.5; };
   auto light_pair = [](std::uint32_t, std::uint32_t) { return 0.0; };
   using Inputs = ConditionedInputs<double, decltype(link), decltype(light_pair)>;
@@ -463,6 +482,13 @@ TEST_CASE("path-conditioned propagation rejects bridge inputs of the wrong size 
   CHECK_THROWS_AS(propagate_conditioned(clustering, with_targets, 2, out, SerialFor{}, std::span<const std::uint8_t>(factorised),
                                         std::span<const double>(diffuse)),
                   std::invalid_argument);
+  const Inputs untargeted_techniques{two, two, two, two, terms, two, techniques, link, light_pair, {}, two, two};
+  CHECK_THROWS_AS(propagate_conditioned(clustering, untargeted_techniques, 2, out, SerialFor{},
+                                        std::span<const std::uint8_t>(factorised), std::span<const double>(diffuse)),
+                  std::invalid_argument);
+  const Inputs targeted_techniques{two, two, two, two, terms, two, technique_targets, link, light_pair, {}, two, two};
+  CHECK_NOTHROW(propagate_conditioned(clustering, targeted_techniques, 2, out, SerialFor{}, std::span<const std::uint8_t>(factorised),
+                                      std::span<const double>(diffuse)));
   const Inputs no_bridges{two, two, two, two, terms, two, targets, link, light_pair};
   CHECK_NOTHROW(propagate_conditioned(clustering, no_bridges, 2, out, SerialFor{}, std::span<const std::uint8_t>(factorised),
                                       std::span<const double>(diffuse)));

@@ -97,8 +97,8 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
   const double n_light = light_paths_of_pass(filter, scene, pass);
   const bool next_event = filtering::technique_set(filter.options()).next_event;
   std::vector<std::uint32_t> targets;
-  for (std::uint32_t u = 0; u < pool.size(); ++u)
-    if (!(pool.flags[u] & (filtering::camera_born | filtering::bridge_segment | filtering::extra_technique)) &&
+  for (std::uint32_t u = 0; u < pool.size(); ++u)  // the light technique samples
+    if ((pool.flags[u] & filtering::light_technique) && !(pool.flags[u] & filtering::camera_born) &&
         pool.segments[u].x.kind == PointKind::surface)
       targets.push_back(u);
   CHECK(pool.bridge_targets == (filtering::technique_set(filter.options()).bridges ? targets.size() : 0));

@@ -133,8 +133,8 @@ struct ConditionedInputs {
   /// near y; both empty without): bridge_share[s] q_b(s), the term each bridge target s'
   /// (conditioned_bridge_target) starting near y_s adds to the bridge density B(s) in D(s), and
   /// bridge_density[s] B(s). B depends on the successor as D_l does, so a junction leaves a
-  /// target successor's term out of G (conditioned_coefficients); factorised groups must then
-  /// have no target among their starts.
+  /// target successor's term out of G (conditioned_coefficients); in factorised groups the
+  /// targets must be the light technique samples (the third class of starts).
   std::span<const T> bridge_share = {}, bridge_density = {};
 };
 
@@ -304,18 +304,24 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         if (factorised[g]) factorised_slots += support.ending_slots(g).end - support.ending_slots(g).begin;
       }
       class_junction.resize(factorised_slots);
-      if (!in.bridge_share.empty())
+      // With bridges the third class is the bridge targets (ConditionedInputs::bridge_share).
+      const bool bridges = !in.bridge_share.empty();
+      if (bridges)
         for (std::size_t g = 0; g < factorised.size(); ++g) {
           if (!factorised[g]) continue;
           const SlotRange starting = support.starting_slots(g);
-          for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-            if (in.flags[starting_segment[j]] & conditioned_bridge_target)
-              throw std::invalid_argument("segpath::propagate_conditioned: a factorised group starts a bridge target");
+          for (std::uint32_t j = starting.begin; j < starting.end; ++j) {
+            const std::uint8_t f = in.flags[starting_segment[j]];
+            if (bool(f & conditioned_bridge_target) != bool(f & conditioned_light_technique))
+              throw std::invalid_argument("segpath::propagate_conditioned: a factorised group starts a bridge target that is "
+                                          "not a light technique sample, or the reverse");
+          }
         }
       detail::for_groups(support, parallel_for, [&](std::size_t g) {
         if (!factorised[g]) return;
-        constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
-                                                 conditioned_potential | conditioned_light_technique | conditioned_light_born};
+        const std::uint8_t class_flags[3] = {0, conditioned_potential,
+                                             std::uint8_t(conditioned_potential | conditioned_light_technique | conditioned_light_born |
+                                                          (bridges ? conditioned_bridge_target : 0))};
         const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
         std::uint32_t representative = no_cluster;
         for (std::uint32_t j = starting.begin; j < starting.end; ++j)
@@ -325,9 +331,11 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
           const T ql = representative == no_cluster ? T(0) : T(in.light_pair(ending_segment[i], representative));
           const S transfer = diffuse[ending_segment[i]] * support.kernel(g);
           const auto end_i = detail::conditioned_end(in, ending_segment[i]);
+          const auto bridge_i = detail::conditioned_bridge_end(in, ending_segment[i]);
           for (int k_class = 0; k_class < 3; ++k_class)
             class_junction[class_offset[g] + (i - ending.begin)].set(
-                k_class, detail::conditioned_coefficients(end_i, class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0)));
+                k_class,
+                detail::conditioned_coefficients(end_i, class_flags[k_class], T(1), transfer, k_class > 0 ? ql : T(0), bridge_i));
         }
       });
     }

@@ -82,9 +82,7 @@ void transfer_factorisation(Context<Scn>& ctx, const Clustering<typename Scn::Sc
 
 /// The clusters whose path-conditioned junction sums factorise: the transfer factorises
 /// (transfer_factorisation) and every start is Lambertian with one normal and leaves its
-/// front side, so q_l(s | s') is the same for every potential light technique s'; with bridges,
-/// no start is a bridge target (its junctions leave its term out of the bridge density,
-/// conditioned_coefficients).
+/// front side, so q_l(s | s') is the same for every potential light technique s'.
 template <LightSampledScene Scn, ParallelFor P>
 void conditioned_factorisation(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>& clustering,
                                std::vector<std::uint8_t>& factorised, std::vector<typename Scn::Spectrum>& diffuse,
@@ -96,12 +94,10 @@ void conditioned_factorisation(Context<Scn>& ctx, const Clustering<typename Scn:
   transfer_factorisation(ctx, clustering, factorised, diffuse, parallel_for);
   const auto x_of = [&](std::uint32_t s) -> const SurfacePoint<T>& { return pool.segments[s].x; };
   std::vector<std::uint8_t> dropped(factorised.size(), 0);
-  const bool bridges = ctx.techniques.bridges && pool.bridge_targets > 0;
   parallel_for(factorised.size(), [&](std::size_t c) {
     if (!factorised[c]) return;
     const auto starting = clustering.starting_segments(c);
     bool ok = common_lambertian_normal(scene, x_of, starting).has_value();
-    for (std::size_t r = 0; r < starting.size() && ok && bridges; ++r) ok = !is_bridge_target(pool, starting[r]);
     for (std::size_t r = 0; r < starting.size() && ok; ++r) {
       const std::uint32_t sp = starting[r];
       ok = glm::dot(pool.first_direction[sp], pool.segments[sp].x.normal) > one_sided_epsilon<T>;

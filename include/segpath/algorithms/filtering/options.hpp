@@ -77,7 +77,7 @@ struct FilteringOptions {
   /// each end, so supports overlap: no quantisation, no factorisation, memory per junction.
   FilteringSupport support = FilteringSupport::voxel;
   /// BDPF only: from every camera technique point y_t, one bridge segment to the start x_u of
-  /// a light segment chosen uniformly among the pool's M light-born surface starts, kept when
+  /// a light segment chosen uniformly among the pool's M light technique samples, kept when
   /// visible (SPEC 1.6 bridge, N34, with the approximate kernel draws of N33). Its technique
   /// density, for every plain segment s, is K(x_s) n_cam(x_s) K(y_s) n_light(y_s) / M.
   bool bridges = false;

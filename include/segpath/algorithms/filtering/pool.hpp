@@ -32,7 +32,7 @@ struct Pool {
   /// The segments each pooled one stands for: 1, or the pieces of a chain through delta
   /// bounces. Paths are limited to max_length of these (propagation/segment_budget.hpp).
   std::vector<std::uint16_t> pieces;
-  std::uint64_t bridge_targets = 0;       ///< M: light-born segments with a surface x (bridges on)
+  std::uint64_t bridge_targets = 0;       ///< M: light technique samples (bridges on)
   std::uint64_t next_event_segments = 0;  ///< camera-born segments drawn by light sampling
   [[nodiscard]] std::size_t size() const noexcept { return flags.size(); }
   [[nodiscard]] std::size_t bytes_per_segment() const noexcept {
@@ -113,10 +113,13 @@ template <class Pl>
   return !(pool.flags[s] & (chain_segment | delta_light)) && pool.segments[s].x.kind == PointKind::surface &&
          pool.segments[s].y.kind == PointKind::surface;
 }
-/// The targets of bridge segments: light-born segments whose x is a surface point.
+/// The targets of bridge segments: the light technique samples (light-born segments whose
+/// surface x tried a predecessor). Exactly the starts of the path-conditioned weighting's third
+/// factorised class, so that a target's junctions, which leave its term out of the bridge
+/// density, need no class of their own (propagation/path_conditioned.hpp).
 template <class Pl>
 [[nodiscard]] bool is_bridge_target(const Pl& pool, std::size_t i) noexcept {
-  return !(pool.flags[i] & (camera_born | bridge_segment | extra_technique)) && pool.segments[i].x.kind == PointKind::surface;
+  return (pool.flags[i] & light_technique) != 0;
 }
 /// A light start from a Dirac light (point light, sun) continued through delta bounces: no other
 /// technique draws such a chain (a camera chain cannot end on a Dirac), so its balance weight is
