@@ -307,22 +307,45 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
   CHECK(self_joined > 100);   // segments with both ends in one cluster, which must not join themselves
 }
 
-TEST_CASE("path-conditioned propagation rejects inputs of different sizes", "[propagation]") {
+TEST_CASE("path-conditioned propagation rejects inputs of different sizes, and bridge targets that are not a factorised "
+          "group's light technique samples",
+          "[propagation]") {
   std::vector<Segment<double>> segments(2, Segment<double>{SurfacePoint<double>::on_surface({0, 0, 0}, {0, 0, 1}),
                                                            SurfacePoint<double>::on_surface({0.1, 0, 0}, {0, 0, 1})});
   Clustering<double> clustering;
   clustering.build(VoxelGrid<double>(1.0), segments);
   std::vector<double> two(2, 1.0), one(1, 1.0);
   std::vector<std::uint32_t> terms(2, 1);
-  std::vector<std::uint8_t> flags(2, 0);
+  const std::uint8_t technique = conditioned_light_technique | conditioned_potential | conditioned_light_born;
+  std::vector<std::uint8_t> flags(2, 0), targets(2, conditioned_bridge_target), techniques(2, technique),
+      technique_targets(2, std::uint8_t(technique | conditioned_bridge_target));
   auto link = [](std::uint32_t, std::uint32_t) { return 0.5; };
   auto light_pair = [](std::uint32_t, std::uint32_t) { return 0.0; };
+  using Inputs = ConditionedInputs<double, decltype(link), decltype(light_pair)>;
   std::vector<double> out;
-  const ConditionedInputs<double, decltype(link), decltype(light_pair)> bad{two, two, two, one, terms, two, flags, link, light_pair};
+  const Inputs bad{two, two, two, one, terms, two, flags, link, light_pair};
   CHECK_THROWS_AS(propagate_conditioned(clustering, bad, 2, out), std::invalid_argument);
-  const ConditionedInputs<double, decltype(link), decltype(light_pair)> good{two, two, two, two, terms, two, flags, link, light_pair};
+  const Inputs good{two, two, two, two, terms, two, flags, link, light_pair};
   CHECK_THROWS_AS(propagate_conditioned(clustering, good, 0, out), std::invalid_argument);
   CHECK_NOTHROW(propagate_conditioned(clustering, good, 2, out));
+  // Bridges: one share and one density per segment, or none.
+  const Inputs short_share{two, two, two, two, terms, two, flags, link, light_pair, {}, one, one};
+  CHECK_THROWS_AS(propagate_conditioned(clustering, short_share, 2, out), std::invalid_argument);
+  const Inputs unpaired{two, two, two, two, terms, two, flags, link, light_pair, {}, two, {}};
+  CHECK_THROWS_AS(propagate_conditioned(clustering, unpaired, 2, out), std::invalid_argument);
+  const Inputs with_targets{two, two, two, two, terms, two, targets, link, light_pair, {}, two, two};
+  CHECK_NOTHROW(propagate_conditioned(clustering, with_targets, 2, out));
+  // In a factorised group the targets must be the light technique samples (the third class).
+  const std::vector<std::uint8_t> factorised(clustering.clusters().size(), 1);
+  const std::vector<double> diffuse(2, 0.5);
+  const auto factorised_run = [&](const Inputs& in) {
+    propagate_conditioned(clustering, in, 2, out, SerialFor{}, std::span<const std::uint8_t>(factorised), std::span<const double>(diffuse));
+  };
+  CHECK_THROWS_AS(factorised_run(with_targets), std::invalid_argument);
+  CHECK_THROWS_AS(factorised_run(Inputs{two, two, two, two, terms, two, techniques, link, light_pair, {}, two, two}),
+                  std::invalid_argument);
+  CHECK_NOTHROW(factorised_run(Inputs{two, two, two, two, terms, two, technique_targets, link, light_pair, {}, two, two}));
+  CHECK_NOTHROW(factorised_run(Inputs{two, two, two, two, terms, two, targets, link, light_pair}));  // no bridges
 }
 
 TEST_CASE("path-conditioned propagation: factorised clusters give the general sum", "[propagation]") {
@@ -453,43 +476,4 @@ TEST_CASE("the compact emission of a slot is conditioned_emission bit for bit, a
         differ += std::memcmp(&full, &compact, sizeof full) != 0 ? 1 : 0;
       }
   CHECK(differ == 0);
-}
-
-TEST_CASE("path-conditioned propagation rejects bridge inputs of the wrong size, and bridge targets that are not a factorised "
-          "group's light technique samples",
-          "[propagation]") {
-  std::vector<Segment<double>> segments(2, Segment<double>{SurfacePoint<double>::on_surface({0, 0, 0}, {0, 0, 1}),
-                                                           SurfacePoint<double>::on_surface({0.1, 0, 0}, {0, 0, 1})});
-  Clustering<double> clustering;
-  clustering.build(VoxelGrid<double>(1.0), segments);
-  std::vector<double> two(2, 1.0), one(1, 1.0);
-  std::vector<std::uint32_t> terms(2, 1);
-  const std::uint8_t technique = conditioned_light_technique | conditioned_potential | conditioned_light_born;
-  std::vector<std::uint8_t> flags(2, 0), targets(2, conditioned_bridge_target), techniques(2, technique),
-      technique_targets(2, std::uint8_t(technique | conditioned_bridge_target));
-  auto link = [](std::uint32_t, std::uint32_t) { return 0.5; };
-  auto light_pair = [](std::uint32_t, std::uint32_t) { return 0.0; };
-  using Inputs = ConditionedInputs<double, decltype(link), decltype(light_pair)>;
-  std::vector<double> out;
-  const Inputs short_share{two, two, two, two, terms, two, flags, link, light_pair, {}, one, one};
-  CHECK_THROWS_AS(propagate_conditioned(clustering, short_share, 2, out), std::invalid_argument);
-  const Inputs unpaired{two, two, two, two, terms, two, flags, link, light_pair, {}, two, {}};
-  CHECK_THROWS_AS(propagate_conditioned(clustering, unpaired, 2, out), std::invalid_argument);
-  const Inputs with_targets{two, two, two, two, terms, two, targets, link, light_pair, {}, two, two};
-  CHECK_NOTHROW(propagate_conditioned(clustering, with_targets, 2, out));
-  const std::vector<std::uint8_t> factorised(clustering.clusters().size(), 1);
-  const std::vector<double> diffuse(2, 0.5);
-  CHECK_THROWS_AS(propagate_conditioned(clustering, with_targets, 2, out, SerialFor{}, std::span<const std::uint8_t>(factorised),
-                                        std::span<const double>(diffuse)),
-                  std::invalid_argument);
-  const Inputs untargeted_techniques{two, two, two, two, terms, two, techniques, link, light_pair, {}, two, two};
-  CHECK_THROWS_AS(propagate_conditioned(clustering, untargeted_techniques, 2, out, SerialFor{},
-                                        std::span<const std::uint8_t>(factorised), std::span<const double>(diffuse)),
-                  std::invalid_argument);
-  const Inputs targeted_techniques{two, two, two, two, terms, two, technique_targets, link, light_pair, {}, two, two};
-  CHECK_NOTHROW(propagate_conditioned(clustering, targeted_techniques, 2, out, SerialFor{}, std::span<const std::uint8_t>(factorised),
-                                      std::span<const double>(diffuse)));
-  const Inputs no_bridges{two, two, two, two, terms, two, targets, link, light_pair};
-  CHECK_NOTHROW(propagate_conditioned(clustering, no_bridges, 2, out, SerialFor{}, std::span<const std::uint8_t>(factorised),
-                                      std::span<const double>(diffuse)));
 }

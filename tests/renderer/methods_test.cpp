@@ -605,6 +605,18 @@ TEST_CASE("PhF carries the sky's light through the spheres of box 3", "[renderer
 }
 
 #if SEGPATH_TEST_OBJ_SCENES
+/// A closed box of tests/renderer/data seen from (0, -0.9, 0) towards `target`, 70 degrees
+/// vertically, side x side pixels.
+RenderScene closed_box_view(const char* file, const renderer::Vec3& target, std::uint32_t side) {
+  renderer::ObjCamera camera;
+  camera.position = {0, -0.9f, 0};
+  camera.target = target;
+  camera.up = {0, 0, 1};
+  camera.fov_y_degrees = 70;
+  const std::filesystem::path data = std::filesystem::path(__FILE__).parent_path() / "data" / file;
+  return renderer::load_obj_scene(data.string(), camera, side, side);
+}
+
 /// Per iteration of `filter` on a side x side image, with voxels of side `cell` (the grid the
 /// filter's options give, unjittered where they say so), the image mean over all pixels.
 RunningStats iteration_image_means(const Filter& filter, const RenderScene& scene, std::uint32_t side, std::uint64_t iterations,
@@ -635,15 +647,10 @@ RunningStats iteration_image_means(const Filter& filter, const RenderScene& scen
 // when it is light-born, and the weighting took it as it was until a junction left a target
 // successor's term out (conditioned_coefficients): +4.5 % at max length 3, +1.8 % at 10.
 #if SEGPATH_TEST_OBJ_SCENES
-TEST_CASE("BDPF's image mean is PT's in a closed diffuse box at max length 2, 3 and 10, with bridges too (no kernel bias)", "[renderer][stat]") {
-  renderer::ObjCamera camera;
-  camera.position = {0, -0.9f, 0};
-  camera.target = {0, 1, 0};
-  camera.up = {0, 0, 1};
-  camera.fov_y_degrees = 70;
+TEST_CASE("BDPF's image mean is PT's in a closed diffuse box at max length 2, 3 and 10, with bridges too (no kernel bias)",
+          "[renderer][stat]") {
   constexpr std::uint32_t side = 32;
-  const std::filesystem::path data = std::filesystem::path(__FILE__).parent_path() / "data" / "diffuse_box.obj";
-  const RenderScene scene = renderer::load_obj_scene(data.string(), camera, side, side);
+  const RenderScene scene = closed_box_view("diffuse_box.obj", {0, 1, 0}, side);
   Tiles whole{std::vector<int>(std::size_t(side) * side, 0), 1};
   // The camera paths' Russian roulette: BDPF's automatic one (continuation 0.7), whose coin every
   // camera successor's density carries, and at max length 10 also none (1); bridges at 3 and 10.
@@ -691,14 +698,8 @@ TEST_CASE("BDPF's image mean is PT's in a closed diffuse box at max length 2, 3 
 // paths' delta bounces sampled as radiance transport, BDPF / PT is 0.776 or 0.783.
 #if SEGPATH_TEST_OBJ_SCENES
 TEST_CASE("BDPF's image mean is PT's with the floor under water (chains between two media)", "[renderer][stat]") {
-  renderer::ObjCamera camera;
-  camera.position = {0, -0.9f, 0};
-  camera.target = {0, 0.5f, -0.8f};
-  camera.up = {0, 0, 1};
-  camera.fov_y_degrees = 70;
   constexpr std::uint32_t side = 32;
-  const std::filesystem::path data = std::filesystem::path(__FILE__).parent_path() / "data" / "water_box.obj";
-  const RenderScene scene = renderer::load_obj_scene(data.string(), camera, side, side);
+  const RenderScene scene = closed_box_view("water_box.obj", {0, 0.5f, -0.8f}, side);
   Tiles whole{std::vector<int>(std::size_t(side) * side, 0), 1};
   constexpr std::size_t max_length = 4;
   renderer::MethodOptions options;
