@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 
 namespace segpath {
@@ -52,6 +53,31 @@ struct ConditionedStart {
   std::uint32_t source = no_cluster;  ///< the ending slot s''s values are read from (no_cluster: emission only)
   std::uint16_t pieces = 1;           ///< p(s') (segment_budget.hpp)
   std::uint8_t flags = 0;
+};
+
+/// The values of a segment that ends the chain (path_conditioned.hpp's conditioned_emission)
+/// kept per ending slot in 16 bytes (float) instead of four spectra.
+template <Spectrum S>
+struct ConditionedEmission {
+  S emitted{spectrum_scalar_t<S>(0)};
+  /// 1 / D(s) (NaN where D(s) > 0 fails), negated (its sign bit set) in state e = 1, D_l(s) > 0.
+  spectrum_scalar_t<S> signed_inverse_density = 0;
+
+  [[nodiscard]] ConditionedValues<S> values() const noexcept {
+    using T = spectrum_scalar_t<S>;
+    const T inverse_density = std::abs(signed_inverse_density);
+    const S w = std::isnan(inverse_density) ? S(T(0)) : emitted * inverse_density;
+    // Constant indices: a value indexed by e would keep a sweep's accumulator in memory.
+    ConditionedValues<S> v;
+    if (std::signbit(signed_inverse_density)) {
+      v.u[1] = emitted;
+      v.w[1] = w;
+    } else {
+      v.u[0] = emitted;
+      v.w[0] = w;
+    }
+    return v;
+  }
 };
 
 /// A junction s -> s' reduced to what a sweep needs: it adds, for e' in {0, 1},

@@ -54,14 +54,10 @@
 // that birth gets 1 / D, and the light mass through s_{i+1} is only needed where nothing else
 // can draw s_i. Checked by the sparse slab furnace (z 0.02) and box 1 against PT; relMSE at 30 s
 // on box 1 0.0044 -> 0.0038.
-// Bridges (a segment from a camera technique point at x to a bridge target, a light-born start,
-// near y) are a technique of both sides: B(s) counts the camera points near x, the predecessor
-// among them (as D_c), and the targets near y, the successor among them when it is one (as
-// D_l). With q_b(s) the term of one target, B'(s) = B(s) - q_b(s) [s_{i+1} a target] does not
-// depend on how s_{i+1} was drawn, so alpha_i(bridge) = B' / G with G = D - D_l - (B - B') +
-// e Lambda keeps alpha summing to one, and a bridge-born s_i has r_i = B' / (G B)
-// (conditioned_coefficients). Taken as it was (B in G, r = 1 / G) the weighting was +4.5 % in a
-// closed diffuse box at max length 3.
+// Bridges count the successor among their targets as D_l counts it among the light technique
+// samples: with B' = B less a target successor's term, alpha_i(bridge) = B' / G, G = D - D_l -
+// (B - B') + e Lambda, and a bridge-born s_i has r_i = B' / (G B) (conditioned_coefficients;
+// docs/filtering.md).
 // Remaining bias: a technique sample that is the pool successor of a chain segment but not in
 // the chain (its presence depends on how the chain was drawn; O(1 / technique samples per
 // cluster)); a technique sample used twice by one chain (revisits) other than s -> s, which is
@@ -129,12 +125,10 @@ struct ConditionedInputs {
   /// p(s): the segments s stands for (a chain through delta bounces); empty: all 1
   /// (propagation/segment_budget.hpp).
   std::span<const std::uint16_t> pieces = {};
-  /// Bridges (a technique drawn from a camera technique point at x to a bridge target starting
-  /// near y; both empty without): bridge_share[s] q_b(s), the term each bridge target s'
+  /// Bridges (empty without): bridge_share[s] q_b(s), the term each bridge target s'
   /// (conditioned_bridge_target) starting near y_s adds to the bridge density B(s) in D(s), and
-  /// bridge_density[s] B(s). B depends on the successor as D_l does, so a junction leaves a
-  /// target successor's term out of G (conditioned_coefficients); in factorised groups the
-  /// targets must be the light technique samples (the third class of starts).
+  /// bridge_density[s] B(s); a junction leaves a target successor's term out of G. In
+  /// factorised groups the targets must be the light technique samples (the third class).
   std::span<const T> bridge_share = {}, bridge_density = {};
 };
 
@@ -172,30 +166,6 @@ ConditionedValues<S> conditioned_emission(const ConditionedInputs<S, Link, Light
   v.w[e] = in.density[s] > T(0) ? in.emitted[s] * (T(1) / in.density[s]) : S(T(0));
   return v;
 }
-
-/// conditioned_emission kept per ending slot in 16 bytes (float) instead of four spectra.
-template <Spectrum S>
-struct ConditionedEmission {
-  S emitted{spectrum_scalar_t<S>(0)};
-  /// 1 / D(s) (NaN where D(s) > 0 fails), negated (its sign bit set) in state e = 1, D_l(s) > 0.
-  spectrum_scalar_t<S> signed_inverse_density = 0;
-
-  [[nodiscard]] ConditionedValues<S> values() const noexcept {
-    using T = spectrum_scalar_t<S>;
-    const T inverse_density = std::abs(signed_inverse_density);
-    const S w = std::isnan(inverse_density) ? S(T(0)) : emitted * inverse_density;
-    // Constant indices: a value indexed by e would keep a sweep's accumulator in memory.
-    ConditionedValues<S> v;
-    if (std::signbit(signed_inverse_density)) {
-      v.u[1] = emitted;
-      v.w[1] = w;
-    } else {
-      v.u[0] = emitted;
-      v.w[0] = w;
-    }
-    return v;
-  }
-};
 
 template <Spectrum S, class Link, class LightPair>
 ConditionedEmission<S> compact_emission(const ConditionedInputs<S, Link, LightPair>& in, std::size_t s) noexcept {
