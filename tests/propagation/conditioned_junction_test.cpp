@@ -64,20 +64,21 @@ TEST_CASE("only a light-born end forces its start: every other junction reads W"
 }
 
 TEST_CASE("a bridge target successor leaves its term out of G and of a bridge-born end's weight", "[propagation]") {
-  // B(s) = 4 (four targets near y_s, q_b = 1 each) in D(s) - D_l(s) = 3 + ... : with the successor
-  // a target, G = rest - q_b, and a bridge-born s is weighted B'(s) / (G B(s)) = (1 - 1/4) / G.
+  // B(s) = 4 (four targets near y_s, q_b = 1 each) in D(s) - D_l(s) = 5 = 1 + 4: with the
+  // successor a target (a light technique sample), G = 5 - q_b = 4, and a bridge-born s is
+  // weighted B'(s) / (G B(s)) = (1 - 1/4) / 4.
   using T = double;
   using S = double;
   const detail::ConditionedBridgeEnd<T> bridge{1.0, 0.25};
+  const std::uint8_t target = conditioned_light_technique | conditioned_potential | conditioned_light_born;
   for (const std::uint8_t extra : {std::uint8_t(0), conditioned_potential}) {
-    const std::uint8_t target = conditioned_bridge_target | extra;
     const detail::ConditionedEnd<T> bridge_born{0.0, 5.0, 0, conditioned_bridge_born};
     const detail::ConditionedEnd<T> camera_born{0.0, 5.0, 0, 0};
     CHECK(detail::conditioned_coefficients<S>(bridge_born, target, 0.0, 2.0, 0.0, bridge).r[0] == Approx(0.75 / 4.0));
     CHECK(detail::conditioned_coefficients<S>(bridge_born, extra, 0.0, 2.0, 0.0, bridge).r[0] == Approx(1.0 / 5.0));
     CHECK(detail::conditioned_coefficients<S>(camera_born, target, 0.0, 2.0, 0.0, bridge).r[0] == Approx(1.0 / 4.0));
     CHECK(detail::conditioned_coefficients<S>(camera_born, extra, 0.0, 2.0, 0.0, bridge).r[0] == Approx(1.0 / 5.0));
-    // Without bridges (no share) the target flag changes nothing.
+    // Without bridges (no target term) a light technique successor changes nothing here.
     CHECK(detail::conditioned_coefficients<S>(bridge_born, target, 0.0, 2.0, 0.0).r[0] == Approx(1.0 / 5.0));
     // With a light side: G = rest - q_b + Lambda in the state e(s) = 1 (D_l' = 2 > 0).
     const detail::ConditionedEnd<T> lit{2.0, 5.0, 1, conditioned_bridge_born};

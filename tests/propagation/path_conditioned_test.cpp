@@ -23,7 +23,7 @@ struct RandomSides {
   std::vector<std::uint32_t> terms;
   std::vector<std::uint8_t> flags;
   std::vector<double> link_table, light_table;  // per ordered pair
-  std::vector<double> bridge_share, bridge_density;  // empty: no bridges
+  std::vector<double> bridge_target_term, bridge_density;  // empty: no bridges
   std::size_t n = 0;
   [[nodiscard]] double link(std::uint32_t s, std::uint32_t sp) const { return link_table[s * n + sp]; }
   [[nodiscard]] double light_pair(std::uint32_t s, std::uint32_t sp) const { return light_table[s * n + sp]; }
@@ -32,19 +32,18 @@ struct RandomSides {
     auto by_link = [this](std::uint32_t s, std::uint32_t sp) { return link(s, sp); };
     auto by_light_pair = [this](std::uint32_t s, std::uint32_t sp) { return light_pair(s, sp); };
     return ConditionedInputs<double, decltype(by_link), decltype(by_light_pair)>{
-        emitted, geometry, density, light, terms, light_technique, flags, by_link, by_light_pair, {}, bridge_share, bridge_density};
+        emitted, geometry, density, light, terms, light_technique, flags, by_link, by_light_pair, {}, bridge_target_term, bridge_density};
   }
-  /// Bridges: some segments not light-born are bridge-born, the light technique samples are the
-  /// targets, and a segment's bridge density is a random number of targets' shares.
+  /// Bridges: some segments not light-born are bridge-born (the light technique samples are the
+  /// targets), and a segment's bridge density is a random number of targets' terms.
   void add_bridges(Pcg32& rng) {
-    bridge_share.assign(n, 0.0);
+    bridge_target_term.assign(n, 0.0);
     bridge_density.assign(n, 0.0);
     for (std::size_t s = 0; s < n; ++s) {
       if (!(flags[s] & conditioned_light_born) && rng.uniform<double>() < 0.5) flags[s] |= conditioned_bridge_born;
-      if (flags[s] & conditioned_light_technique) flags[s] |= conditioned_bridge_target;
       if (rng.uniform<double>() < 0.3) continue;
-      bridge_share[s] = 0.1 + rng.uniform<double>();
-      bridge_density[s] = bridge_share[s] * double(1 + rng.next_u32() % 3);
+      bridge_target_term[s] = 0.1 + rng.uniform<double>();
+      bridge_density[s] = bridge_target_term[s] * double(1 + rng.next_u32() % 3);
       density[s] += bridge_density[s];
     }
   }
@@ -307,18 +306,14 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
   CHECK(self_joined > 100);   // segments with both ends in one cluster, which must not join themselves
 }
 
-TEST_CASE("path-conditioned propagation rejects inputs of different sizes, and bridge targets that are not a factorised "
-          "group's light technique samples",
-          "[propagation]") {
+TEST_CASE("path-conditioned propagation rejects inputs of different sizes", "[propagation]") {
   std::vector<Segment<double>> segments(2, Segment<double>{SurfacePoint<double>::on_surface({0, 0, 0}, {0, 0, 1}),
                                                            SurfacePoint<double>::on_surface({0.1, 0, 0}, {0, 0, 1})});
   Clustering<double> clustering;
   clustering.build(VoxelGrid<double>(1.0), segments);
   std::vector<double> two(2, 1.0), one(1, 1.0);
   std::vector<std::uint32_t> terms(2, 1);
-  const std::uint8_t technique = conditioned_light_technique | conditioned_potential | conditioned_light_born;
-  std::vector<std::uint8_t> flags(2, 0), targets(2, conditioned_bridge_target), techniques(2, technique),
-      technique_targets(2, std::uint8_t(technique | conditioned_bridge_target));
+  std::vector<std::uint8_t> flags(2, 0);
   auto link = [](std::uint32_t, std::uint32_t) { return 0.5; };
   auto light_pair = [](std::uint32_t, std::uint32_t) { return 0.0; };
   using Inputs = ConditionedInputs<double, decltype(link), decltype(light_pair)>;
@@ -328,24 +323,13 @@ TEST_CASE("path-conditioned propagation rejects inputs of different sizes, and b
   const Inputs good{two, two, two, two, terms, two, flags, link, light_pair};
   CHECK_THROWS_AS(propagate_conditioned(clustering, good, 0, out), std::invalid_argument);
   CHECK_NOTHROW(propagate_conditioned(clustering, good, 2, out));
-  // Bridges: one share and one density per segment, or none.
-  const Inputs short_share{two, two, two, two, terms, two, flags, link, light_pair, {}, one, one};
-  CHECK_THROWS_AS(propagate_conditioned(clustering, short_share, 2, out), std::invalid_argument);
+  // Bridges: one target term and one density per segment, or none.
+  const Inputs short_bridges{two, two, two, two, terms, two, flags, link, light_pair, {}, one, one};
+  CHECK_THROWS_AS(propagate_conditioned(clustering, short_bridges, 2, out), std::invalid_argument);
   const Inputs unpaired{two, two, two, two, terms, two, flags, link, light_pair, {}, two, {}};
   CHECK_THROWS_AS(propagate_conditioned(clustering, unpaired, 2, out), std::invalid_argument);
-  const Inputs with_targets{two, two, two, two, terms, two, targets, link, light_pair, {}, two, two};
-  CHECK_NOTHROW(propagate_conditioned(clustering, with_targets, 2, out));
-  // In a factorised group the targets must be the light technique samples (the third class).
-  const std::vector<std::uint8_t> factorised(clustering.clusters().size(), 1);
-  const std::vector<double> diffuse(2, 0.5);
-  const auto factorised_run = [&](const Inputs& in) {
-    propagate_conditioned(clustering, in, 2, out, SerialFor{}, std::span<const std::uint8_t>(factorised), std::span<const double>(diffuse));
-  };
-  CHECK_THROWS_AS(factorised_run(with_targets), std::invalid_argument);
-  CHECK_THROWS_AS(factorised_run(Inputs{two, two, two, two, terms, two, techniques, link, light_pair, {}, two, two}),
-                  std::invalid_argument);
-  CHECK_NOTHROW(factorised_run(Inputs{two, two, two, two, terms, two, technique_targets, link, light_pair, {}, two, two}));
-  CHECK_NOTHROW(factorised_run(Inputs{two, two, two, two, terms, two, targets, link, light_pair}));  // no bridges
+  const Inputs bridges{two, two, two, two, terms, two, flags, link, light_pair, {}, two, two};
+  CHECK_NOTHROW(propagate_conditioned(clustering, bridges, 2, out));
 }
 
 TEST_CASE("path-conditioned propagation: factorised clusters give the general sum", "[propagation]") {

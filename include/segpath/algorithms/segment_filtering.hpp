@@ -233,7 +233,7 @@ class SegmentFiltering {
   /// What the bridges add to the path-conditioned propagation per segment: their share and
   /// density in `side`, and the junctions' copy per ending slot (none without bridges).
   static std::size_t bridge_bytes(const filtering::LightSide<T>& side) noexcept {
-    return side.bridge_share.empty() ? 0 : 2 * sizeof(T) + sizeof(detail::ConditionedBridgeEnd<T>);
+    return side.bridge_density.empty() ? 0 : 2 * sizeof(T) + sizeof(detail::ConditionedBridgeEnd<T>);
   }
 
   template <class Smp>

@@ -19,7 +19,6 @@ inline constexpr std::uint8_t conditioned_light_born = 1;       ///< drawn by a 
 inline constexpr std::uint8_t conditioned_light_technique = 2;  ///< a light predecessor draw was attempted from x
 inline constexpr std::uint8_t conditioned_potential = 4;        ///< x could be a light technique point (implied by 2)
 inline constexpr std::uint8_t conditioned_bridge_born = 8;       ///< drawn by a bridge (a technique of both sides)
-inline constexpr std::uint8_t conditioned_bridge_target = 16;    ///< x could be the end a bridge draws
 
 /// The four suffix sums of a segment (path_conditioned.hpp's header comment).
 template <Spectrum S>
@@ -39,11 +38,11 @@ struct ConditionedEnd {
 };
 
 /// What a junction reads of an ending segment s about bridges (none: zeros): q_b(s), the term
-/// one bridge target starting near y_s adds to s's bridge density B(s), and for a bridge-born s
-/// q_b(s) / B(s), the share of its own density that its successor takes when it is a target.
+/// one bridge target (a light technique sample) starting near y_s adds to s's bridge density
+/// B(s), and for a bridge-born s the fraction q_b(s) / B(s) of its own density.
 template <Real T>
 struct ConditionedBridgeEnd {
-  T share = 0, own_share = 0;
+  T target_term = 0, target_fraction = 0;
 };
 
 /// What a junction reads of its starting segment s', gathered once per pool.
@@ -107,8 +106,9 @@ struct ClassJunctions {
 
 /// The junction s -> s' (transfer = K f_r(s, s') G(s')) for s' with flags fp and 1 / D_lt(s')
 /// (where read forced) and q_l(s | s') = ql: the r_i and e(s) rules of the header comment.
-/// A bridge target s' leaves s's bridge density as a light technique sample leaves D_l: G and
-/// a bridge-born s's alpha use B'(s) = B(s) - q_b(s), whatever side s' was born on.
+/// With bridges the targets are the light technique samples: a target s' leaves its term out
+/// of s's bridge density as it leaves it out of D_l, so G and a bridge-born s's alpha use
+/// B'(s) = B(s) less s''s term, which is the same whatever side s' was born on.
 template <Spectrum S>
 SEGPATH_FORCE_INLINE ConditionedJunction<S> conditioned_coefficients(const ConditionedEnd<spectrum_scalar_t<S>>& end, std::uint8_t fp,
                                                                      spectrum_scalar_t<S> forced_weight, const S& transfer,
@@ -116,9 +116,9 @@ SEGPATH_FORCE_INLINE ConditionedJunction<S> conditioned_coefficients(const Condi
                                                                      const ConditionedBridgeEnd<spectrum_scalar_t<S>>& bridge = {}) noexcept {
   using T = spectrum_scalar_t<S>;
   const bool light_born = end.flags & conditioned_light_born;
-  const bool bridge_excluded = (fp & conditioned_bridge_target) && bridge.share > T(0);
-  const T rest = bridge_excluded ? std::max(T(0), end.rest - bridge.share) : end.rest;
-  const T own = bridge_excluded && (end.flags & conditioned_bridge_born) ? T(1) - bridge.own_share : T(1);
+  const bool bridge_excluded = (fp & conditioned_light_technique) && bridge.target_term > T(0);
+  const T rest = bridge_excluded ? std::max(T(0), end.rest - bridge.target_term) : end.rest;
+  const T own = bridge_excluded && (end.flags & conditioned_bridge_born) ? T(1) - bridge.target_fraction : T(1);
   const bool successor_technique = fp & conditioned_light_technique;
   if (!(fp & conditioned_potential)) ql = T(0);
   const bool excluded = successor_technique && ql > T(0);

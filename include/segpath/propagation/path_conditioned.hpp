@@ -125,11 +125,11 @@ struct ConditionedInputs {
   /// p(s): the segments s stands for (a chain through delta bounces); empty: all 1
   /// (propagation/segment_budget.hpp).
   std::span<const std::uint16_t> pieces = {};
-  /// Bridges (empty without): bridge_share[s] q_b(s), the term each bridge target s'
-  /// (conditioned_bridge_target) starting near y_s adds to the bridge density B(s) in D(s), and
-  /// bridge_density[s] B(s); a junction leaves a target successor's term out of G. In
-  /// factorised groups the targets must be the light technique samples (the third class).
-  std::span<const T> bridge_share = {}, bridge_density = {};
+  /// Bridges (empty without), whose targets are the light technique samples:
+  /// bridge_target_term[s] q_b(s), the term each target starting near y_s adds to the bridge
+  /// density B(s) in D(s), and bridge_density[s] B(s); a junction leaves a target successor's
+  /// term out of G (conditioned_coefficients).
+  std::span<const T> bridge_target_term = {}, bridge_density = {};
 };
 
 namespace detail {
@@ -141,8 +141,8 @@ void check_conditioned(const ConditionedInputs<S, Link, LightPair>& in, int iter
   if (in.geometry.size() != n || in.density.size() != n || in.light_density.size() != n || in.light_terms.size() != n ||
       in.light_technique_density.size() != n || in.flags.size() != n)
     throw std::invalid_argument("segpath::propagate_conditioned: the per-segment inputs differ in size");
-  if (in.bridge_share.size() != in.bridge_density.size() || !(in.bridge_share.empty() || in.bridge_share.size() == n))
-    throw std::invalid_argument("segpath::propagate_conditioned: bridge_share and bridge_density need one value per segment, or none");
+  if (in.bridge_target_term.size() != in.bridge_density.size() || !(in.bridge_density.empty() || in.bridge_density.size() == n))
+    throw std::invalid_argument("segpath::propagate_conditioned: bridge_target_term and bridge_density need one value per segment, or none");
 }
 
 /// The default of propagate_conditioned's by_id_done: nothing to free.
@@ -197,9 +197,9 @@ template <Spectrum S, class Link, class LightPair>
 ConditionedBridgeEnd<spectrum_scalar_t<S>> conditioned_bridge_end(const ConditionedInputs<S, Link, LightPair>& in,
                                                                   std::size_t s) noexcept {
   using T = spectrum_scalar_t<S>;
-  if (in.bridge_share.empty() || !(in.bridge_share[s] > T(0))) return {};
-  const T b = in.bridge_density[s];
-  return {in.bridge_share[s], (in.flags[s] & conditioned_bridge_born) && b > T(0) ? std::min(T(1), in.bridge_share[s] / b) : T(0)};
+  if (in.bridge_target_term.empty() || !(in.bridge_target_term[s] > T(0))) return {};
+  const T q = in.bridge_target_term[s], b = in.bridge_density[s];
+  return {q, (in.flags[s] & conditioned_bridge_born) && b > T(0) ? std::min(T(1), q / b) : T(0)};
 }
 
 }  // namespace detail
@@ -274,24 +274,10 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         if (factorised[g]) factorised_slots += support.ending_slots(g).end - support.ending_slots(g).begin;
       }
       class_junction.resize(factorised_slots);
-      // With bridges the third class is the bridge targets (ConditionedInputs::bridge_share).
-      const bool bridges = !in.bridge_share.empty();
-      if (bridges)
-        for (std::size_t g = 0; g < factorised.size(); ++g) {
-          if (!factorised[g]) continue;
-          const SlotRange starting = support.starting_slots(g);
-          for (std::uint32_t j = starting.begin; j < starting.end; ++j) {
-            const std::uint8_t f = in.flags[starting_segment[j]];
-            if (bool(f & conditioned_bridge_target) != bool(f & conditioned_light_technique))
-              throw std::invalid_argument("segpath::propagate_conditioned: a factorised group starts a bridge target that is "
-                                          "not a light technique sample, or the reverse");
-          }
-        }
       detail::for_groups(support, parallel_for, [&](std::size_t g) {
         if (!factorised[g]) return;
-        const std::uint8_t class_flags[3] = {0, conditioned_potential,
-                                             std::uint8_t(conditioned_potential | conditioned_light_technique | conditioned_light_born |
-                                                          (bridges ? conditioned_bridge_target : 0))};
+        constexpr std::uint8_t class_flags[3] = {0, conditioned_potential,
+                                                 conditioned_potential | conditioned_light_technique | conditioned_light_born};
         const SlotRange ending = support.ending_slots(g), starting = support.starting_slots(g);
         std::uint32_t representative = no_cluster;
         for (std::uint32_t j = starting.begin; j < starting.end; ++j)
@@ -320,7 +306,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   // slot_u (0: none; starting_u[0] stays zero, what every other start reads).
   using Pair = std::array<S, 2>;
   std::vector<detail::ConditionedEnd<T>> end(ending_slots);
-  std::vector<detail::ConditionedBridgeEnd<T>> bridge_end(in.bridge_share.empty() ? 0 : ending_slots);
+  std::vector<detail::ConditionedBridgeEnd<T>> bridge_end(in.bridge_density.empty() ? 0 : ending_slots);
   std::vector<detail::ConditionedEmission<S>> emission(ending_slots);
   std::vector<Pair> current_w(ending_slots);
   const Pair zero{S(T(0)), S(T(0))};

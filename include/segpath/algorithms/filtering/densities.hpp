@@ -173,7 +173,7 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
   if (bridges || ctx.techniques.next_event) {
     camera_points_at_x.assign(pool.size(), T(0));
     if (bridges) bridge_sum.assign(pool.size(), T(0));
-    if (bridges && side) side->bridge_share.assign(pool.size(), T(0));
+    if (bridges && side) side->bridge_target_term.assign(pool.size(), T(0));
     parallel_for(pool.size(), [&](std::size_t i) {
       const std::uint32_t cx = clustering.cluster_of_x(std::uint32_t(i)), cy = clustering.cluster_of_y(std::uint32_t(i));
       if (cx == no_cluster) return;
@@ -182,9 +182,9 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
       camera_points_at_x[i] = clusters[cx].kernel * T(camera_points[cx] - (self_point ? 1 : 0));
       const bool self_target = is_bridge_target(pool, i) && cy == cx;
       if (bridges && cy != no_cluster && bridge_reachable(pool, i)) {
-        const T share = camera_points_at_x[i] * clusters[cy].kernel / T(pool.bridge_targets);
-        bridge_sum[i] = share * T(bridge_targets[cy] - (self_target ? 1 : 0));
-        if (side) side->bridge_share[i] = share;
+        const T term = camera_points_at_x[i] * clusters[cy].kernel / T(pool.bridge_targets);  // one target's
+        bridge_sum[i] = term * T(bridge_targets[cy] - (self_target ? 1 : 0));
+        if (side) side->bridge_target_term[i] = term;
       }
     });
     if (bridges && side) side->bridge_density = bridge_sum;
@@ -207,7 +207,7 @@ void compute_densities(Context<Scn>& ctx, const DiskJunctions<typename Scn::Scal
   const bool bridges = ctx.techniques.bridges && pool.bridge_targets > 0;
   std::vector<T> camera_sum(pool.size(), T(0)), light_sum(pool.size(), T(0)), bridge_sum(bridges ? pool.size() : 0, T(0));
   std::vector<T> camera_points_at_x(ctx.techniques.next_event ? pool.size() : 0, T(0));
-  if (bridges && side) side->bridge_share.assign(pool.size(), T(0));
+  if (bridges && side) side->bridge_target_term.assign(pool.size(), T(0));
   constexpr std::size_t chunk = 1024;
   const std::size_t chunks = (pool.size() + chunk - 1) / chunk;
   std::vector<std::uint64_t> pairs(chunks, 0);
@@ -233,9 +233,9 @@ void compute_densities(Context<Scn>& ctx, const DiskJunctions<typename Scn::Scal
       }
       if (sum > T(0)) light_sum[sp] = T(ctx.techniques.light_continuation) * kernel * sum * light_measure<Scn>(pool, sp);
       if (bridges && bridge_reachable(pool, sp)) {
-        const T share = kernel * T(camera_points) * kernel / T(pool.bridge_targets);
-        bridge_sum[sp] = share * T(targets);
-        if (side) side->bridge_share[sp] = share;
+        const T term = kernel * T(camera_points) * kernel / T(pool.bridge_targets);  // one target's
+        bridge_sum[sp] = term * T(targets);
+        if (side) side->bridge_target_term[sp] = term;
       }
       if (ctx.techniques.next_event) camera_points_at_x[sp] = kernel * T(camera_points);
     }

@@ -30,7 +30,7 @@ struct LightSide {
   std::vector<std::uint8_t> flags;
   /// With bridges (empty without): q_b(s), the term of B(s) that each bridge target starting
   /// near y_s adds, and B(s), the bridge density in D(s) (compute_densities).
-  std::vector<T> bridge_share, bridge_density;
+  std::vector<T> bridge_target_term, bridge_density;
 };
 /// q_l(s | s'), the one pair density of the weighting: the density with which a light
 /// technique sample at x_{s'} (the approximate light predecessor, N33) draws s, kernel
@@ -58,7 +58,6 @@ void light_side_start(const Context<Scn>& ctx, LightSide<typename Scn::Scalar>& 
   using T = typename Scn::Scalar;
   const auto& pool = ctx.pool;
   const std::uint64_t light_paths = ctx.light_paths();
-  const bool bridges = ctx.techniques.bridges && pool.bridge_targets > 0;
   side.density.assign(pool.size(), T(0));
   side.terms.assign(pool.size(), 0);
   side.flags.assign(pool.size(), 0);
@@ -71,7 +70,6 @@ void light_side_start(const Context<Scn>& ctx, LightSide<typename Scn::Scalar>& 
     // A light path could have reached x (through delta reflections too) and tried a predecessor there.
     if (s.x.kind == PointKind::surface) flags |= conditioned_potential;
     if (f & bridge_segment) flags |= conditioned_bridge_born;
-    if (bridges && is_bridge_target(pool, i)) flags |= conditioned_bridge_target;
     side.flags[i] = flags;
     const T d = light_start_density(ctx.scene, pool, i, light_paths);
     if (!(std::isfinite(d) && d > T(0))) return;

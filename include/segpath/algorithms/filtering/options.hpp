@@ -79,7 +79,7 @@ struct FilteringOptions {
   /// BDPF only: from every camera technique point y_t, one bridge segment to the start x_u of
   /// a light segment chosen uniformly among the pool's M light technique samples, kept when
   /// visible (SPEC 1.6 bridge, N34, with the approximate kernel draws of N33). Its technique
-  /// density, for every plain segment s, is K(x_s) n_cam(x_s) K(y_s) n_light(y_s) / M.
+  /// density, for every plain segment s, is K(x_s) n_cam(x_s) K(y_s) n_tgt(y_s) / M.
   bool bridges = false;
   /// MVF and BDPF (PhF has no camera technique points and ignores it): from every camera
   /// technique point y_t, one next-event segment to a light

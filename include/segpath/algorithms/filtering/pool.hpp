@@ -114,9 +114,9 @@ template <class Pl>
          pool.segments[s].y.kind == PointKind::surface;
 }
 /// The targets of bridge segments: the light technique samples (light-born segments whose
-/// surface x tried a predecessor). Exactly the starts of the path-conditioned weighting's third
-/// factorised class, so that a target's junctions, which leave its term out of the bridge
-/// density, need no class of their own (propagation/path_conditioned.hpp).
+/// surface x tried a predecessor), as the path-conditioned weighting takes them
+/// (ConditionedInputs::bridge_target_term): its junctions leave a target's term out of the
+/// bridge density, and in a factorised cluster the targets are the third class of starts.
 template <class Pl>
 [[nodiscard]] bool is_bridge_target(const Pl& pool, std::size_t i) noexcept {
   return (pool.flags[i] & light_technique) != 0;

@@ -133,7 +133,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     // D_lt = D_l (LightSide): side.density serves as both.
     const ConditionedInputs<S, decltype(link), decltype(light_pair)> inputs{
         pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.density, side.flags, link, light_pair,
-        pool.pieces, side.bridge_share, side.bridge_density};
+        pool.pieces, side.bridge_target_term, side.bridge_density};
     const ConditionedMemory memory = propagate_conditioned(support, inputs, iterations, radiance, parallel_for);
     stats.lagged_bytes = memory.lagged;
     stats.forced_value_bytes = memory.forced_values;
@@ -183,7 +183,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     const ConditionedInputs<S, TransferLink<Scn>, SlotLightPair> slot_inputs{
         pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.density, side.flags,
         TransferLink<Scn>{scene.bsdf(), transfer}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale},
-        pool.pieces, side.bridge_share, side.bridge_density};
+        pool.pieces, side.bridge_target_term, side.bridge_density};
     // The junctions of the pairs that fit the cache budget are built once per pool. Once the
     // factorised clusters' q_l are in, everything reads the slot-ordered copies.
     auto by_id_done = [&] {
