@@ -98,7 +98,9 @@ void finish_densities(RandomSides& p, Pcg32& rng, const Near& near) {
   }
 }
 
-/// The conditioned weight of one chain, written out (header comment of path_conditioned.hpp).
+/// The conditioned weight of one chain, written out (header comment of path_conditioned.hpp),
+/// bridges included: where s_{a+1} is a bridge target (a light technique sample), G(s_a) leaves
+/// its term q_b out of the bridge density B, and a bridge-born s_a weighs B' / (G B).
 double chain_weight(const RandomSides& p, const std::vector<std::uint32_t>& chain) {
   const std::size_t k = chain.size();
   auto ql = [&](std::size_t a) {  // q_l(s_a | s_{a+1}), 0 unless s_{a+1} is a potential light technique
@@ -123,9 +125,16 @@ double chain_weight(const RandomSides& p, const std::vector<std::uint32_t>& chai
       const bool excluded = (p.flags[chain[a + 1]] & conditioned_light_technique) && ql(a) > 0;
       const double light_other = other_terms(a) > 0 ? std::max(0.0, p.light[s] - (excluded ? ql(a) : 0.0)) : 0.0;
       const double lambda = light_other > 0 ? light_other : ql(a);
-      const double g = std::max(0.0, p.density[s] - p.light[s]) + (e[a] ? lambda : 0.0);
+      const double target_term = p.bridge_target_term.empty() ? 0.0 : p.bridge_target_term[s];
+      const bool target_next = (p.flags[chain[a + 1]] & conditioned_light_technique) && target_term > 0;
+      const double rest = std::max(0.0, std::max(0.0, p.density[s] - p.light[s]) - (target_next ? target_term : 0.0));
+      const double g = rest + (e[a] ? lambda : 0.0);
+      const bool bridge_born = p.flags[s] & conditioned_bridge_born;
+      const double own = target_next && bridge_born && p.bridge_density[s] > 0
+                             ? 1 - std::min(1.0, target_term / p.bridge_density[s])
+                             : 1.0;
       if (light_born) w *= e[a] && g > 0 && p.light[s] > 0 ? lambda / (g * p.light[s]) : 0.0;
-      else w *= g > 0 ? 1 / g : 0.0;
+      else w *= g > 0 ? own / g : 0.0;
     }
   }
   return w;
@@ -191,9 +200,10 @@ Neighbourhoods neighbourhoods(const RandomSides& p, bool disk, Pcg32& rng) {
 
 }  // namespace
 
-TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 400 random pools", "[propagation]") {
+TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 400 random pools, with bridges too",
+          "[propagation]") {
   Pcg32 rng(2026, 11);
-  int compared = 0, nontrivial = 0, forced_light = 0, self_joined = 0;
+  int compared = 0, nontrivial = 0, forced_light = 0, self_joined = 0, bridge_junctions = 0;
   for (int trial = 0; trial < 400; ++trial) {
     RandomSides p = make_sides(rng);
     const bool disk = trial % 2 == 1;
@@ -205,6 +215,7 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
     self_joined += hood.self_joined;
     auto near_of = [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; };
     finish_densities(p, rng, near_of);
+    if (trial % 4 >= 2) p.add_bridges(rng);  // on both supports
     const auto inputs = p.inputs();
     const int depth = 1 + int(rng.next_u32() % 4);
     std::vector<double> result, threaded;
@@ -221,8 +232,11 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
           for (const std::uint32_t sp : junctions.starting_near(s)) {
             if (!(p.geometry[sp] > 0)) continue;
             const double ql = (p.flags[sp] & conditioned_potential) ? p.light_pair(s, sp) : 0.0;
-            detail::conditioned_junction(detail::conditioned_end(inputs, s), p.flags[sp], detail::conditioned_forced_weight(inputs, sp),
-                                         p.link(s, sp) * (junctions.kernel() * p.geometry[sp]), ql, current[sp], next[s]);
+            const auto j = detail::conditioned_coefficients(detail::conditioned_end(inputs, s), p.flags[sp],
+                                                            detail::conditioned_forced_weight(inputs, sp),
+                                                            p.link(s, sp) * (junctions.kernel() * p.geometry[sp]), ql,
+                                                            detail::conditioned_bridge_end(inputs, s));
+            detail::apply_junction(j, detail::read_successor(j.code, current[sp].u, current[sp].w), next[s]);
           }
         }
       std::vector<double> tabled;
@@ -264,7 +278,7 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
       std::size_t calls = 0;
       const ConditionedInputs<double, SlotLink, SlotLightPair> slot_inputs{
           p.emitted, p.geometry, p.density, p.light, p.terms, p.light_technique, p.flags, SlotLink{p, clustering, &wrong, &calls},
-          SlotLightPair{p, clustering, &wrong}};
+          SlotLightPair{p, clustering, &wrong}, {}, p.bridge_target_term, p.bridge_density};
       // The junctions a sweep evaluates: pairs of a cluster with a start of positive G.
       std::size_t junctions_per_sweep = 0;
       for (const Cluster<double>& cl : clustering.clusters())
@@ -295,15 +309,21 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
       ++compared;
       const double own = p.density[s] > 0 ? p.emitted[s] / p.density[s] : 0.0;
       if (reference != own) ++nontrivial;
-      for (const std::uint32_t sp : near[s])
+      for (const std::uint32_t sp : near[s]) {
         forced_light += (p.flags[s] & conditioned_light_born) && (p.flags[sp] & conditioned_light_technique) &&
                         p.terms[s] == 1 && p.light_pair(s, sp) > 0 && p.geometry[sp] > 0;
+        // A bridge-born s joining a target: both bridge terms of the weight are exercised.
+        bridge_junctions += !p.bridge_target_term.empty() && p.bridge_target_term[s] > 0 &&
+                            (p.flags[s] & conditioned_bridge_born) && (p.flags[sp] & conditioned_light_technique) &&
+                            p.geometry[sp] > 0;
+      }
     }
   }
   CHECK(compared > 2000);
   CHECK(nontrivial > compared / 4);
   CHECK(forced_light > 50);  // the forced branch is exercised
   CHECK(self_joined > 100);   // segments with both ends in one cluster, which must not join themselves
+  CHECK(bridge_junctions > 50);
 }
 
 TEST_CASE("path-conditioned propagation rejects inputs of different sizes", "[propagation]") {
