@@ -209,15 +209,6 @@ SEGPATH_FORCE_INLINE void apply_junction(const ConditionedJunction<S>& j, const 
   apply_junction(j.transfer, j.r, j.code, v, acc);
 }
 
-/// Adds the junction s -> s' to s's values (conditioned_coefficients, then apply_junction).
-template <Spectrum S>
-SEGPATH_FORCE_INLINE void conditioned_junction(const ConditionedEnd<spectrum_scalar_t<S>>& end, std::uint8_t fp,
-                                               spectrum_scalar_t<S> forced_weight, const S& transfer, spectrum_scalar_t<S> ql,
-                                               const ConditionedValues<S>& next, ConditionedValues<S>& acc) noexcept {
-  const ConditionedJunction<S> j = conditioned_coefficients(end, fp, forced_weight, transfer, ql);
-  apply_junction(j, read_successor(j.code, next.u, next.w), acc);
-}
-
 }  // namespace detail
 
 }  // namespace segpath
