@@ -11,17 +11,23 @@
 // light technique samples starting at b give c_l Q(a | b), the light start N p_0(a).
 //
 //   g++ -std=c++20 -O2 -DCELLS=8 -Iinclude docs/experiments/few_light_paths.cpp -o few_light_paths
-//   ./few_light_paths N pools [max_length [uniform | stratified]]
+//   ./few_light_paths N pools [max_length [uniform | stratified] [first]]
 //
 // "uniform": every light start density 1 / C. "stratified": uniform, and light path l starts at
 // cell l mod C (N / C per cell), so the light starts are not random and the light start's
-// density is exact.
+// density is exact. "first": a light path's predecessor draw is a technique sample only at the
+// path's first visit of a cell, and what it draws at a repeat visit joins no chain, as segment
+// filtering does (filtering::Context::visit_grid).
 //
 // Measured (400,000 pools, max length 6, 8 cells): E / exact 0.957 / 0.966 / 0.977 / 0.985 /
 // 0.991 / 0.997 at N = 1 / 2 / 4 / 8 / 16 / 64; at N = 4, max length 2 / 3 / 4: 1.001 / 0.996 /
 // 0.988; at N = 8 with 4 / 16 / 32 cells (200,000 pools): 0.985 / 0.985 / 0.986. Uniform start
 // densities, random / stratified starts (200,000 pools): N = 8 0.9855 / 0.9856, N = 16 0.9912 /
 // 0.9910, N = 64 0.9974 / 0.9976.
+// With "first" (session 46), max length 6: 8 cells, N = 8 / 64: 0.9976 / 1.0009 (400,000 and
+// 100,000 pools); 64 cells (-DCELLS=64), N = 1: 0.9871 -> 1.0048 (5,000,000 pools), N = 8:
+// 0.9908 -> 1.0014 (2,000,000). What stays is chains that use one segment twice, which
+// propagate_conditioned cannot leave out: +10 % at 8 cells with N = 1, +0.6 % at 64 cells.
 #include <segpath/propagation/path_conditioned.hpp>
 #include <segpath/core/rng.hpp>
 
@@ -100,9 +106,10 @@ double exact(const World& w, int max_length) {
 struct Drawn {
   int x, y;  // x < 0: pixel -1 - x's sensor
   bool light_born, camera_technique, light_technique;
+  bool repeat_visit_born = false;  // drawn at its light path's repeat visit of a cell
 };
 
-double estimate(const World& w, int light_paths, int max_length, bool stratified, Pcg32& rng) {
+double estimate(const World& w, int light_paths, int max_length, bool stratified, bool first_visits, Pcg32& rng) {
   using namespace segpath;
   std::vector<Drawn> pool;
   for (int m = 0; m < pixels; ++m) {
@@ -117,9 +124,17 @@ double estimate(const World& w, int light_paths, int max_length, bool stratified
   for (int l = 0; l < light_paths; ++l) {
     const int first = stratified ? l % C : draw(w.start, C, rng.uniform<double>());
     pool.push_back({first, light, true, false, true});
-    while (rng.uniform<double>() < light_continuation) {
-      const int y = pool.back().x;
-      pool.push_back({draw(w.Q[y], C, rng.uniform<double>()), y, true, false, true});
+    std::vector<bool> visited(C, false);
+    while (true) {
+      // With first_visits, a technique sample only at the path's first visit of a cell
+      // (filtering::Context::visit_grid); what a repeat visit draws is in no chain.
+      Drawn& generator = pool.back();
+      const bool repeat = first_visits && visited[generator.x];
+      visited[generator.x] = true;
+      generator.light_technique = !repeat;
+      if (!(rng.uniform<double>() < light_continuation)) break;
+      const int y = generator.x;
+      pool.push_back({draw(w.Q[y], C, rng.uniform<double>()), y, true, false, true, repeat});
     }
   }
   const std::size_t n = pool.size();
@@ -140,7 +155,7 @@ double estimate(const World& w, int light_paths, int max_length, bool stratified
     const Drawn& s = pool[i];
     segments[i] = {point(s.x), point(s.y)};
     emitted[i] = s.y == light ? 1.0 : 0.0;
-    geometry[i] = s.x >= 0 ? w.T[s.x][s.y] : 0.0;  // the transfer into s (kernel 1)
+    geometry[i] = s.x >= 0 && !s.repeat_visit_born ? w.T[s.x][s.y] : 0.0;  // the transfer into s (kernel 1)
     double camera = 0;
     if (s.x < 0) {
       camera = w.W[-1 - s.x][s.y];
@@ -178,23 +193,27 @@ double estimate(const World& w, int light_paths, int max_length, bool stratified
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: %s light_paths pools [max_length [uniform | stratified]]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s light_paths pools [max_length [uniform | stratified] [first]]\n", argv[0]);
     return 2;
   }
   const int light_paths = std::atoi(argv[1]);
   const long pools = std::atol(argv[2]);
   const int max_length = argc > 3 ? std::atoi(argv[3]) : 6;
-  const std::string_view starts = argc > 4 ? argv[4] : "";
-  const bool stratified = starts == "stratified";
-  const World w = make_world(stratified || starts == "uniform");
+  bool stratified = false, uniform = false, first_visits = false;
+  for (int i = 4; i < argc; ++i) {
+    const std::string_view word = argv[i];
+    stratified |= word == "stratified", uniform |= word == "uniform", first_visits |= word == "first";
+  }
+  const World w = make_world(stratified || uniform);
   const double reference = exact(w, max_length);
   Pcg32 rng(777, std::uint64_t(light_paths));
   double sum = 0, squares = 0;
   for (long i = 0; i < pools; ++i) {
-    const double e = estimate(w, light_paths, max_length, stratified, rng);
+    const double e = estimate(w, light_paths, max_length, stratified, first_visits, rng);
     sum += e, squares += e * e;
   }
   const double mean = sum / double(pools), error = std::sqrt((squares / double(pools) - mean * mean) / double(pools));
-  std::printf("%d cells, %d light paths%s, max length %d: E / exact %.5f +- %.5f\n", C, light_paths,
-              stratified ? " (stratified starts)" : "", max_length, mean / reference, error / reference);
+  std::printf("%d cells, %d light paths%s%s, max length %d: E / exact %.5f +- %.5f\n", C, light_paths,
+              stratified ? " (stratified starts)" : "", first_visits ? " (first visits)" : "", max_length, mean / reference,
+              error / reference);
 }
