@@ -26,8 +26,10 @@
 // 0.9910, N = 64 0.9974 / 0.9976.
 // With "first" (session 46), max length 6: 8 cells, N = 8 / 64: 0.9976 / 1.0009 (400,000 and
 // 100,000 pools); 64 cells (-DCELLS=64), N = 1: 0.9871 -> 1.0048 (5,000,000 pools), N = 8:
-// 0.9908 -> 1.0014 (2,000,000). What stays is chains that use one segment twice, which
-// propagate_conditioned cannot leave out: +10 % at 8 cells with N = 1, +0.6 % at 64 cells.
+// 0.9908 -> 1.0014 (2,000,000). What stays is mostly chains that use one segment twice, which
+// propagate_conditioned cannot leave out: +0.7 % at 64 cells with N = 1, +4.4 % at 8 cells
+// (docs/figures.md, session 46; at 8 cells N = 1 gives 1.0997, and the rule alone overshoots
+// where paths revisit cells this often).
 #include <segpath/propagation/path_conditioned.hpp>
 #include <segpath/core/rng.hpp>
 
