@@ -497,11 +497,11 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
   // test compiling until it is listed here, with the rule add_pass must merge it by.
   const auto filled = [](double base) {
     FilteringStats s;
-    auto& [segments, camera, light, bridge, clusters, next_event, extra, repeat_visits, junctions, factorised_camera, factorised_light,
+    auto& [segments, camera, light, bridge, clusters, next_event, extra, junctions, factorised_camera, factorised_light,
            factorised_transfer, pair_evaluations, cell_size, bytes_per_segment, transfer_cache, propagation_copy, lagged,
            forced_values, records, record_slack, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = s;
     std::uint64_t count = static_cast<std::uint64_t>(base);
-    for (std::uint64_t* c : {&segments, &camera, &light, &bridge, &clusters, &next_event, &extra, &repeat_visits, &junctions,
+    for (std::uint64_t* c : {&segments, &camera, &light, &bridge, &clusters, &next_event, &extra, &junctions,
                              &factorised_camera, &factorised_light, &factorised_transfer, &pair_evaluations})
       *c = count++;
     cell_size = 0.25;  // one iteration: every pass has the same cell
@@ -516,7 +516,7 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
   for (const auto& [first, second] : {std::pair{a, b}, std::pair{b, a}}) {
     FilteringStats m = first;
     m.add_pass(second);
-    const auto& [segments, camera, light, bridge, clusters, next_event, extra, repeat_visits, junctions, factorised_camera, factorised_light,
+    const auto& [segments, camera, light, bridge, clusters, next_event, extra, junctions, factorised_camera, factorised_light,
                  factorised_transfer, pair_evaluations, cell_size, bytes_per_segment, transfer_cache, propagation_copy, lagged,
                  forced_values, records, record_slack, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = m;
     CHECK(segments == a.segments + b.segments);
@@ -526,7 +526,6 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
     CHECK(clusters == a.clusters + b.clusters);
     CHECK(next_event == a.next_event_segments + b.next_event_segments);
     CHECK(extra == a.extra_segments + b.extra_segments);
-    CHECK(repeat_visits == a.repeat_visit_segments + b.repeat_visit_segments);
     CHECK(junctions == a.junctions + b.junctions);
     CHECK(factorised_camera == a.factorised_camera_clusters + b.factorised_camera_clusters);
     CHECK(factorised_light == a.factorised_light_clusters + b.factorised_light_clusters);

@@ -58,18 +58,11 @@
 // samples: with B' = B less a target successor's term, alpha_i(bridge) = B' / G, G = D - D_l -
 // (B - B') + e Lambda, and a bridge-born s_i has r_i = B' / (G B) (conditioned_coefficients;
 // docs/filtering.md).
-// What this assumes of the pool: a light path holds at most one light technique sample per
-// cluster. Its later visits of a cluster exist only if what it drew at the first does, so
-// counted in D_l they raise it exactly where that segment was drawn: O(1 / N_L) dark, -0.2 %
-// with 256 light paths (docs/filtering.md). Segment filtering's light paths are technique
-// samples at their first visit of a voxel only (filtering::Context::visit_grid).
 // Remaining bias: a technique sample that is the pool successor of a chain segment but not in
-// the chain, in another chain segment's cluster (its presence depends on how the chain was
-// drawn; also O(1 / N_L), -0.15 +- 0.07 % with a single light path in
-// docs/experiments/few_light_paths.cpp's world of 64 cells); a camera path's repeat visits
-// (the same term on the camera side; in that world, first visits on the camera side too moved
-// the mean by +0.03 %); a technique sample used twice by
-// one chain (revisits) other than s -> s, which is never a junction (propagation/propagate.hpp).
+// the chain (its presence depends on how the chain was drawn; O(1 / technique samples per
+// cluster)); a technique sample used twice by one chain (revisits) other than s -> s, which is
+// never a junction (propagation/propagate.hpp); and, measured, a deficit of ~0.1-0.2 % with a
+// few hundred light paths an iteration that follows their number, not the kernel (docs/filtering.md).
 //
 // The recursion: r_i depends on s_{i+1} and on two bits, e(s_i) (from the suffix) and "forced"
 // (from the predecessor), so each segment carries four values, U_e and W_e for e in {0, 1}:
