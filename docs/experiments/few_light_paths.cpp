@@ -129,7 +129,7 @@ double estimate(const World& w, int light_paths, int max_length, bool stratified
     std::vector<bool> visited(C, false);
     while (true) {
       // With first_visits, a technique sample only at the path's first visit of a cell
-      // (filtering::Context::visit_grid); what a repeat visit draws is in no chain.
+      // (d0e8c30, reverted); what a repeat visit draws is in no chain.
       Drawn& generator = pool.back();
       const bool repeat = first_visits && visited[generator.x];
       visited[generator.x] = true;
