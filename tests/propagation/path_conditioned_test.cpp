@@ -24,6 +24,7 @@ struct RandomSides {
   std::vector<std::uint8_t> flags;
   std::vector<double> link_table, light_table;  // per ordered pair
   std::vector<double> bridge_target_term, bridge_density;  // empty: no bridges
+  std::vector<std::uint32_t> backtrack;  // empty: none
   std::size_t n = 0;
   [[nodiscard]] double link(std::uint32_t s, std::uint32_t sp) const { return link_table[s * n + sp]; }
   [[nodiscard]] double light_pair(std::uint32_t s, std::uint32_t sp) const { return light_table[s * n + sp]; }
@@ -32,7 +33,30 @@ struct RandomSides {
     auto by_link = [this](std::uint32_t s, std::uint32_t sp) { return link(s, sp); };
     auto by_light_pair = [this](std::uint32_t s, std::uint32_t sp) { return light_pair(s, sp); };
     return ConditionedInputs<double, decltype(by_link), decltype(by_light_pair)>{
-        emitted, geometry, density, light, terms, light_technique, flags, by_link, by_light_pair, {}, bridge_target_term, bridge_density};
+        emitted, geometry, density, light, terms, light_technique, flags, by_link, by_light_pair, {}, bridge_target_term, bridge_density,
+        backtrack};
+  }
+  /// Backtrack partners (ConditionedInputs::backtrack): most often a segment joined both ways
+  /// with s, so that chains can go round trips between them; sometimes a start near y_s only,
+  /// a segment anywhere (no round trip), none, or each other's partner.
+  template <class Near>
+  void add_backtracks(Pcg32& rng, const Near& near) {
+    backtrack.assign(n, no_cluster);
+    for (std::uint32_t s = 0; s < n; ++s) {
+      const double u = rng.uniform<double>();
+      std::vector<std::uint32_t> both;  // starts near y_s near whose y s starts
+      for (const std::uint32_t b : near(s))
+        if (std::ranges::count(near(b), s) > 0) both.push_back(b);
+      const auto& starts = near(s);
+      if (u < 0.6 && !both.empty()) backtrack[s] = both[rng.next_u32() % both.size()];
+      else if (u < 0.7 && !starts.empty()) backtrack[s] = starts[rng.next_u32() % starts.size()];
+      else if (u < 0.8) backtrack[s] = rng.next_u32() % std::uint32_t(n);
+      if (backtrack[s] < n && rng.uniform<double>() < 0.2) backtrack[backtrack[s]] = s;  // each other's
+    }
+  }
+  /// Whether s and s' are backtrack partners (either way round).
+  [[nodiscard]] bool partners(std::uint32_t s, std::uint32_t sp) const {
+    return !backtrack.empty() && s != sp && (backtrack[s] == sp || backtrack[sp] == s);
   }
   /// Bridges: some segments not light-born are bridge-born; the targets are the light technique
   /// samples, so B(s) is q_b(s) times the targets among the starts near y_s (`near`, as the
@@ -155,11 +179,15 @@ double naive(const RandomSides& p, std::uint32_t s, int depth, const Near& near,
              const std::vector<std::uint16_t>& pieces = {}) {
   const auto pieces_of = [&](std::uint32_t sp) { return pieces.empty() ? 1 : int(pieces[sp]); };
   std::vector<std::uint32_t> chain{s};
+  // A chain never goes a -> b -> a between partners (ConditionedInputs::backtrack).
+  const auto round_trip = [&](std::uint32_t sp) {
+    return chain.size() >= 2 && chain[chain.size() - 2] == sp && p.partners(chain.back(), sp);
+  };
   std::function<double(double, int)> walk = [&](double throughput, int left) -> double {
     double sum = throughput * p.emitted[chain.back()] * chain_weight(p, chain);
     const std::uint32_t last = chain.back();
     for (const std::uint32_t sp : near(last)) {
-      if (!(p.geometry[sp] > 0) || left - pieces_of(sp) < 0) continue;
+      if (!(p.geometry[sp] > 0) || left - pieces_of(sp) < 0 || round_trip(sp)) continue;
       chain.push_back(sp);
       sum += walk(throughput * p.link(last, sp) * kernel(last) * p.geometry[sp], left - pieces_of(sp));
       chain.pop_back();
@@ -209,7 +237,7 @@ Neighbourhoods neighbourhoods(const RandomSides& p, bool disk, Pcg32& rng) {
 TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 400 random pools, with bridges too",
           "[propagation]") {
   Pcg32 rng(2026, 11);
-  int compared = 0, nontrivial = 0, forced_light = 0, self_joined = 0, bridged = 0;
+  int compared = 0, nontrivial = 0, forced_light = 0, self_joined = 0, bridged = 0, backtracked = 0;
   for (int trial = 0; trial < 400; ++trial) {
     RandomSides p = make_sides(rng);
     const bool disk = trial % 2 == 1;
@@ -222,6 +250,7 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
     auto near_of = [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; };
     finish_densities(p, rng, near_of);
     if (trial % 4 >= 2) p.add_bridges(rng, near_of);  // on both supports
+    if (trial % 8 >= 4) p.add_backtracks(rng, near_of);  // on both supports, with and without bridges
     RandomSides without_bridges = p;  // the same densities, the bridge terms of the weight left out
     without_bridges.bridge_target_term.clear();
     without_bridges.bridge_density.clear();
@@ -253,7 +282,7 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
       CHECK(memory.junction_table == junctions.junction_count() * sizeof(detail::ConditionedJunction<double>));
       CHECK(memory.lagged == 0);  // no chains
       for (std::uint32_t s = 0; s < p.n; ++s) {
-        CHECK(result[s] == current[s].w[0] + current[s].w[1]);
+        if (p.backtrack.empty()) CHECK(result[s] == current[s].w[0] + current[s].w[1]);  // (no round trips to take out)
         CHECK(tabled[s] == result[s]);
       }
     } else {
@@ -287,16 +316,23 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
       std::size_t calls = 0;
       const ConditionedInputs<double, SlotLink, SlotLightPair> slot_inputs{
           p.emitted, p.geometry, p.density, p.light, p.terms, p.light_technique, p.flags, SlotLink{p, clustering, &wrong, &calls},
-          SlotLightPair{p, clustering, &wrong}, {}, p.bridge_target_term, p.bridge_density};
+          SlotLightPair{p, clustering, &wrong}, {}, p.bridge_target_term, p.bridge_density, p.backtrack};
       // The junctions a sweep evaluates: pairs of a cluster with a start of positive G.
       std::size_t junctions_per_sweep = 0;
       for (const Cluster<double>& cl : clustering.clusters())
         for (std::uint32_t j = cl.slot; j < cl.slot + cl.starting_count(); ++j)
           if (const std::uint32_t sp = clustering.starting_segments()[j]; p.geometry[sp] > 0)
             junctions_per_sweep += cl.ending_count() - (clustering.cluster_of_y(sp) == clustering.cluster_of_x(sp) ? 1 : 0);
+      // Each round trip's two junctions are built once more (its correction's).
+      std::size_t round_trip_junctions = 0;
+      for (std::uint32_t a = 0; a < p.n && !p.backtrack.empty(); ++a) {
+        const std::uint32_t b = p.backtrack[a];
+        const auto joined = [&](std::uint32_t x, std::uint32_t y) { return std::ranges::count(near[x], y) > 0 && p.geometry[y] > 0; };
+        if (b < p.n && b != a && !(p.backtrack[b] == a && b < a) && joined(a, b) && joined(b, a)) round_trip_junctions += 2;
+      }
       std::vector<double> by_slot;
       CHECK(propagate_conditioned(clustering, slot_inputs, depth, by_slot).junction_table == 0);  // no table by default
-      CHECK(calls == junctions_per_sweep * std::size_t(depth));
+      CHECK(calls == junctions_per_sweep * std::size_t(depth) + round_trip_junctions);
       CHECK(wrong == 0);
       CHECK(by_slot == result);
       // A junction table, whole and partial (the first clusters only), gives the same numbers.
@@ -305,8 +341,8 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
         calls = 0;
         const std::size_t bytes = propagate_conditioned(clustering, slot_inputs, depth, tabled, SerialFor{}, {}, {}, budget).junction_table;
         CHECK(bytes <= budget);
-        if (budget > bytes + (std::size_t(1) << 20)) CHECK(calls == junctions_per_sweep);  // whole: once per junction
-        else CHECK(calls <= junctions_per_sweep * std::size_t(depth));
+        if (budget > bytes + (std::size_t(1) << 20)) CHECK(calls == junctions_per_sweep + round_trip_junctions);  // whole: once per junction
+        else CHECK(calls <= junctions_per_sweep * std::size_t(depth) + round_trip_junctions);
         CHECK(wrong == 0);
         CHECK(tabled == result);
       }
@@ -319,9 +355,11 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
       ++compared;
       const double own = p.density[s] > 0 ? p.emitted[s] / p.density[s] : 0.0;
       if (reference != own) ++nontrivial;
-      for (const std::uint32_t sp : near[s])
+      for (const std::uint32_t sp : near[s]) {
+        backtracked += p.partners(s, sp) && p.geometry[sp] > 0 && p.geometry[s] > 0 && std::ranges::count(near[sp], s) > 0;
         forced_light += (p.flags[s] & conditioned_light_born) && (p.flags[sp] & conditioned_light_technique) &&
                         p.terms[s] == 1 && p.light_pair(s, sp) > 0 && p.geometry[sp] > 0;
+      }
     }
   }
   CHECK(compared > 2000);
@@ -329,6 +367,7 @@ TEST_CASE("path-conditioned propagation equals the naive chain enumeration on 40
   CHECK(forced_light > 50);  // the forced branch is exercised
   CHECK(self_joined > 100);   // segments with both ends in one cluster, which must not join themselves
   CHECK(bridged > 100);  // segments whose value the bridge terms change
+  CHECK(backtracked > 100);  // junctions of round trips, which chains may not go
 }
 
 TEST_CASE("path-conditioned propagation rejects inputs of different sizes", "[propagation]") {
@@ -360,6 +399,7 @@ TEST_CASE("path-conditioned propagation rejects inputs of different sizes", "[pr
 TEST_CASE("path-conditioned propagation: factorised clusters give the general sum", "[propagation]") {
   Pcg32 rng(2026, 12);
   int factorised_clusters = 0, self_joined = 0;  // self_joined: both ends in one factorised cluster
+  int backtracked = 0;  // round-trip junctions from factorised clusters
   for (int trial = 0; trial < 300; ++trial) {
     RandomSides p = make_sides(rng);
     Clustering<double> clustering;
@@ -387,6 +427,12 @@ TEST_CASE("path-conditioned propagation: factorised clusters give the general su
     const auto near_of = [&](std::uint32_t s) -> const std::vector<std::uint32_t>& { return near[s]; };
     finish_densities(p, rng, near_of);
     if (trial % 2 == 1) p.add_bridges(rng, near_of);
+    if (trial % 3 != 0) p.add_backtracks(rng, near_of);
+    for (std::uint32_t s = 0; s < p.n; ++s)
+      if (const std::uint32_t c = clustering.cluster_of_y(s); c != no_cluster && factorised[c])
+        backtracked += std::ranges::count_if(near[s], [&](std::uint32_t sp) {
+          return p.partners(s, sp) && p.geometry[sp] > 0 && p.geometry[s] > 0 && std::ranges::count(near[sp], s) > 0;
+        });
     const auto inputs = p.inputs();
     const int depth = 1 + int(rng.next_u32() % 4);
     std::vector<double> general, fast;
@@ -397,6 +443,7 @@ TEST_CASE("path-conditioned propagation: factorised clusters give the general su
   }
   CHECK(factorised_clusters > 300);
   CHECK(self_joined > 100);  // the sums without a segment's own start are exercised
+  CHECK(backtracked > 100);  // and their round trips taken out
 }
 
 TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[propagation]") {
