@@ -89,14 +89,6 @@ struct ConditionedJunction {
   std::uint8_t code;  ///< bit 0: s forces s' (read U); bits 1, 2: the state e(s) reached from e(s') = 0, 1
 };
 
-/// One direction a -> b of a round trip (ConditionedInputs::backtrack, propagate_conditioned):
-/// the junction as the sweep applies it, a's ending slot and b's start record.
-template <Spectrum S>
-struct RoundTrip {
-  ConditionedJunction<S> junction;
-  std::uint32_t a_slot = 0, b_record = 0;
-};
-
 /// The code of a table entry whose pair is no junction (s' is s, or carries no weight):
 /// conditioned_coefficients never gives it.
 inline constexpr std::uint8_t no_junction = 0xff;

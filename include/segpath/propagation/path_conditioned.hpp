@@ -70,14 +70,9 @@
 // (the same term on the camera side; in that world, first visits on the camera side too moved
 // the mean by +0.03 %); a technique sample used twice by
 // one chain (revisits) other than s -> s, which is never a junction (propagation/propagate.hpp),
-// and a -> b -> a between a segment and the one that drew it, which the propagation takes out
-// (ConditionedInputs::backtrack). Those round trips were the largest: where a light path bounces
-// straight back into the voxel it came from, its predecessor there starts at a repeat visit, is
-// no technique sample and leaves its term out of the parent's D_l; the predecessor's junction
-// into its parent forces (only the parent draws it) with 1 / D_lt(parent), and on box 3's glossy
-// floor each round trip parent -> predecessor -> parent gained ~14x (a firefly of 6e5). Taking
-// them out moved BDPF in the closed diffuse box with 256 light paths from +0.06 % to -0.11 +-
-// 0.04 % (docs/figures.md, session 47).
+// and a -> b -> a between a segment and the one that drew it, which is taken out
+// (ConditionedInputs::backtrack, propagation/round_trips.hpp): on box 3's glossy floor such round
+// trips, forced at each return, gained ~14x each (docs/filtering.md, "Round trips").
 //
 // The recursion: r_i depends on s_{i+1} and on two bits, e(s_i) (from the suffix) and "forced"
 // (from the predecessor), so each segment carries four values, U_e and W_e for e in {0, 1}:
@@ -97,6 +92,7 @@
 #include "segpath/propagation/disk_junctions.hpp"
 #include "segpath/propagation/junction_support.hpp"
 #include "segpath/propagation/pair_table.hpp"
+#include "segpath/propagation/round_trips.hpp"
 #include "segpath/propagation/segment_budget.hpp"
 #include "segpath/propagation/propagate.hpp"
 
@@ -147,12 +143,8 @@ struct ConditionedInputs {
   /// term out of G (conditioned_coefficients).
   std::span<const T> bridge_target_term = {}, bridge_density = {};
   /// backtrack[s] (empty: none; no_cluster: none for s): a segment b that no chain goes a round
-  /// trip s -> b -> s or b -> s -> b with, where both junctions exist: in segment filtering the
-  /// one that drew s or that s drew (s -> b then returns to the point they share exactly). Such
-  /// a chain uses one segment twice, which the weighting's derivation does not cover; where a
-  /// junction of the pair forces (1 / D_lt), each round trip can gain (header comment). Each
-  /// pair is taken once, whichever way round it is given; not between segments of several
-  /// pieces (chains through delta bounces), whose values are read lagged.
+  /// trip s -> b -> s or b -> s -> b with (propagation/round_trips.hpp); in segment filtering the
+  /// one that drew s or that s drew. Not between segments of several pieces (read lagged).
   std::span<const std::uint32_t> backtrack = {};
 };
 
@@ -412,63 +404,24 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         return joins(i, j) ? junction(i, j, support.kernel(g)) : Junction{S(T(0)), {}, detail::no_junction};
       },
       parallel_for);
-  // Round trips (ConditionedInputs::backtrack): a pair a, b = backtrack[a] joined both ways,
-  // a -> b and b -> a, kept as two directed entries 2m and 2m + 1. A sweep sums every junction,
-  // so a's values would also hold the chains a -> b -> a -> ...; the Jacobi form of a
-  // non-backtracking walk takes them out again: with P_k(a -> b) the part of a's values after
-  // sweep k that starts with a -> b (J(a, b) applied as apply_junction),
-  //   P_k(a -> b) = J(a, b) (V_{k-1}(b) - P_{k-1}(b -> a)),   V_k(a) -= J(a, b) P_{k-1}(b -> a),
-  // P_{-1} = 0. Only between segments of one piece each (no lagged reads).
-  std::vector<detail::RoundTrip<S>> round_trip;
-  if (!in.backtrack.empty()) {
-    std::vector<std::uint32_t> group_of(ending_slots, no_cluster);
-    for (std::size_t g = 0; g < support.group_count(); ++g)
-      for (std::uint32_t i = support.ending_slots(g).begin; i < support.ending_slots(g).end; ++i) group_of[i] = std::uint32_t(g);
-    // The starting slot of segment b in group g (no_cluster: none): where every segment starts
-    // once, its one starting slot if in g; else a search of g's starts (a disk's neighbours).
-    std::vector<std::uint32_t> start_slot;
-    if constexpr (J::single_start) {
-      start_slot.assign(n, no_cluster);
-      for (std::uint32_t j = 0; j < std::uint32_t(std::ranges::size(starting_segment)); ++j) start_slot[starting_segment[j]] = j;
-    }
-    auto start_in = [&](std::size_t g, std::uint32_t b) {
-      const SlotRange starting = support.starting_slots(g);
-      if constexpr (J::single_start) {
-        return starting.contains(start_slot[b]) ? start_slot[b] : no_cluster;
-      } else {
-        for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-          if (starting_segment[j] == b) return j;
-        return no_cluster;
-      }
-    };
-    // The junction of ending slot i and starting slot j of group g as the sweep applies it:
-    // in a factorised group, its class's junction with the start's G (and forced weight).
-    auto applied = [&](std::size_t g, std::uint32_t i, std::uint32_t j) -> Junction {
-      if constexpr (J::factorisable) {
-        if (has_factorisation && factorised[g]) {
-          const detail::ConditionedStart<T>& st = start[record(j)];
-          const detail::ClassJunctions<S>& c = class_junction[class_offset[g] + (i - support.ending_slots(g).begin)];
-          const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
-          const bool forces = c.code[k_class] & 1;
-          const T scale = forces ? st.geometry * st.forced_weight : st.geometry;  // forced_weight is 0 outside class 2
-          return Junction{S(c.transfer * scale), c.r[k_class], c.code[k_class]};
+  // Round trips between backtrack partners, taken out after each sweep (propagation/round_trips.hpp).
+  detail::RoundTrips<S> round_trips;
+  round_trips.build(
+      support, in.backtrack, joins,
+      [&](std::size_t g, std::uint32_t i, std::uint32_t j) -> Junction {
+        // In a factorised group, the class's junction with the start's G (and forced weight).
+        if constexpr (J::factorisable) {
+          if (has_factorisation && factorised[g]) {
+            const detail::ConditionedStart<T>& st = start[record(j)];
+            const detail::ClassJunctions<S>& c = class_junction[class_offset[g] + (i - support.ending_slots(g).begin)];
+            const int k_class = (st.flags & conditioned_light_technique) ? 2 : (st.flags & conditioned_potential) ? 1 : 0;
+            const T scale = (c.code[k_class] & 1) ? st.geometry * st.forced_weight : st.geometry;  // forced_weight: 0 outside class 2
+            return Junction{S(c.transfer * scale), c.r[k_class], c.code[k_class]};
+          }
         }
-      }
-      return junction(i, j, T(support.kernel(g)));
-    };
-    const auto one_piece = [&](std::uint32_t s) { return in.pieces.empty() || in.pieces[s] == 1; };
-    for (std::uint32_t ia = 0; ia < ending_slots; ++ia) {
-      const std::uint32_t a = ending_segment[ia], b = in.backtrack[a];
-      if (b >= n || b == a || (in.backtrack[b] == a && b < a) || !one_piece(a) || !one_piece(b)) continue;  // each pair once
-      const std::uint32_t ib = support.ending_slot_of(b);
-      if (ib == no_cluster || group_of[ia] == no_cluster || group_of[ib] == no_cluster) continue;
-      const std::uint32_t jb = start_in(group_of[ia], b), ja = start_in(group_of[ib], a);
-      if (jb == no_cluster || ja == no_cluster || !joins(ia, jb) || !joins(ib, ja)) continue;
-      round_trip.push_back({applied(group_of[ia], ia, jb), ia, record(jb)});
-      round_trip.push_back({applied(group_of[ib], ib, ja), ib, record(ja)});
-    }
-  }
-  std::vector<ConditionedValues<S>> round_trip_part(round_trip.size()), round_trip_next(round_trip.size());
+        return junction(i, j, T(support.kernel(g)));
+      },
+      record, [&](std::uint32_t s) { return in.pieces.empty() || in.pieces[s] == 1; });  // no lagged reads
   // Budgets (segment_budget.hpp): sweep k computes A^(k + 1); a start of p pieces reads
   // A^(k + 1 - p), which lagged_w (W) and lagged_u (U, forceable starts only) keep for p > 1
   // (as for the results of chains). A start's source is its own segment's ending slot, and a
@@ -626,26 +579,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         }
       }
     });
-    // Round trips out (see above), in entry order: the result does not depend on the threads.
-    for (std::size_t m = 0; m < round_trip.size(); ++m) {
-      const detail::RoundTrip<S>& t = round_trip[m];
-      const ConditionedValues<S>& back = round_trip_part[m ^ 1];  // P_{k-1}(b -> a)
-      const std::uint32_t iu = record_u[t.b_record];
-      ConditionedValues<S> rest;  // V_{k-1}(b), as this sweep read it, less P_{k-1}(b -> a)
-      for (int e = 0; e < 2; ++e) {
-        rest.w[e] = starting_w[t.b_record][e] + back.w[e] * T(-1);
-        rest.u[e] = (iu != 0 ? starting_u[iu][e] : S(T(0))) + back.u[e] * T(-1);
-      }
-      ConditionedValues<S> part, out;
-      detail::apply_junction(t.junction, detail::read_successor(t.junction.code, rest.u, rest.w), part);
-      detail::apply_junction(t.junction, detail::read_successor(t.junction.code, back.u, back.w), out);
-      round_trip_next[m] = part;
-      for (int e = 0; e < 2; ++e) {
-        current_w[t.a_slot][e] += out.w[e] * T(-1);
-        if (slot_u[t.a_slot] != 0) current_u[slot_u[t.a_slot]][e] += out.u[e] * T(-1);
-      }
-    }
-    std::swap(round_trip_part, round_trip_next);
+    round_trips.take_out(starting_w, starting_u, record_u, current_w, current_u, slot_u);
     if (depth > 1) {
       lagged_w.keep(k + 1, std::span<const Pair>(current_w), parallel_for);
       lagged_u.keep_each(k + 1, [&](std::uint32_t i) -> const Pair& { return current_u[slot_u[i]]; }, parallel_for);
@@ -659,7 +593,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   table = {};
   lagged_u = {};
   detail::release(starting_w, starting_u, current_u, start, end, emission, class_junction, class_offset, slot_u, record_u,
-                  source_u, start_watch, u_watch, round_trip, round_trip_part, round_trip_next);
+                  source_u, start_watch, u_watch);
+  round_trips = {};
   // Segments whose y end is in no group keep their emission; each segment's value is over
   // paths of at most iterations + 1 segments, A^(iterations + 1 - p(s)).
   const auto budget_of = [&](std::size_t s) { return depth == 1 ? iterations : iterations + 1 - int(in.pieces[s]); };
