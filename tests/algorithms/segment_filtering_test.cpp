@@ -145,6 +145,42 @@ TEST_CASE("segment filtering: light paths have no depth limit, every light-born 
   CHECK(beyond > 20);  // ~1/4 of 256 light paths
 }
 
+// A chain that joins a segment to the one that drew it (or that it drew) anywhere but at the
+// point they share returns to that point, and through the pair's two junctions can use both
+// again and again; the path-conditioned propagation leaves those junctions out
+// (ConditionedInputs::backtrack). On box 3 a glossy floor's light path bounced back into its
+// own voxel, and the loop made a firefly of 6e5.
+TEST_CASE("segment filtering: a segment's backtrack partner is its light predecessor or its camera parent", "[algorithms]") {
+  using Filter = SegmentFiltering<PhotographedSlab<double>>;
+  const PhotographedSlab<double> scene(furnace, 16);
+  FilteringOptions<double> o;
+  o.max_length = 4;
+  const Filter filter(o);
+  auto ctx = filter.context(scene, 0);
+  filter.build_pool(ctx);
+  const auto& pool = ctx.pool;
+  std::vector<std::uint32_t> backtrack;
+  filtering::backtrack_partners(pool, backtrack, SerialFor{});
+  REQUIRE(backtrack.size() == pool.size());
+  std::vector<std::uint32_t> expected(pool.size(), no_cluster);
+  std::size_t camera = 0, light = 0;
+  for (std::uint32_t i = 0; i < pool.size(); ++i) {
+    const std::uint32_t t = pool.parent[i];
+    if (t == filtering::no_parent) continue;
+    if (pool.flags[i] & filtering::camera_born) {
+      expected[i] = t;  // a camera successor s' = i does not join its parent: i -> t is skipped
+      ++camera;
+    } else {
+      CHECK(expected[t] == no_cluster);  // one light predecessor per parent
+      expected[t] = i;  // the parent does not join its light predecessor: t -> i is skipped
+      ++light;
+    }
+  }
+  CHECK(backtrack == expected);
+  CHECK(camera > 200);
+  CHECK(light > 100);
+}
+
 TEST_CASE("segment filtering: factorised clusters give the same image", "[algorithms]") {
   const PhotographedSlab<double> scene(furnace, 8);
   for (auto mode : {FilteringMode::mvf, FilteringMode::phf, FilteringMode::bdpf}) {
@@ -497,11 +533,11 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
   // test compiling until it is listed here, with the rule add_pass must merge it by.
   const auto filled = [](double base) {
     FilteringStats s;
-    auto& [segments, camera, light, bridge, clusters, next_event, extra, junctions, factorised_camera, factorised_light,
+    auto& [segments, camera, light, bridge, clusters, next_event, extra, repeat_visits, junctions, factorised_camera, factorised_light,
            factorised_transfer, pair_evaluations, cell_size, bytes_per_segment, transfer_cache, propagation_copy, lagged,
            forced_values, records, record_slack, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = s;
     std::uint64_t count = static_cast<std::uint64_t>(base);
-    for (std::uint64_t* c : {&segments, &camera, &light, &bridge, &clusters, &next_event, &extra, &junctions,
+    for (std::uint64_t* c : {&segments, &camera, &light, &bridge, &clusters, &next_event, &extra, &repeat_visits, &junctions,
                              &factorised_camera, &factorised_light, &factorised_transfer, &pair_evaluations})
       *c = count++;
     cell_size = 0.25;  // one iteration: every pass has the same cell
@@ -516,7 +552,7 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
   for (const auto& [first, second] : {std::pair{a, b}, std::pair{b, a}}) {
     FilteringStats m = first;
     m.add_pass(second);
-    const auto& [segments, camera, light, bridge, clusters, next_event, extra, junctions, factorised_camera, factorised_light,
+    const auto& [segments, camera, light, bridge, clusters, next_event, extra, repeat_visits, junctions, factorised_camera, factorised_light,
                  factorised_transfer, pair_evaluations, cell_size, bytes_per_segment, transfer_cache, propagation_copy, lagged,
                  forced_values, records, record_slack, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = m;
     CHECK(segments == a.segments + b.segments);
@@ -526,6 +562,7 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
     CHECK(clusters == a.clusters + b.clusters);
     CHECK(next_event == a.next_event_segments + b.next_event_segments);
     CHECK(extra == a.extra_segments + b.extra_segments);
+    CHECK(repeat_visits == a.repeat_visit_segments + b.repeat_visit_segments);
     CHECK(junctions == a.junctions + b.junctions);
     CHECK(factorised_camera == a.factorised_camera_clusters + b.factorised_camera_clusters);
     CHECK(factorised_light == a.factorised_light_clusters + b.factorised_light_clusters);

@@ -32,6 +32,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -82,14 +83,19 @@ class SegmentFiltering {
   }
 
   /// A fresh context for `iteration` (0-based) and its pass `pass` of pixel_passes, for running
-  /// the stages one by one.
-  [[nodiscard]] Context context(const Scn& scene, std::uint64_t iteration, std::uint32_t pass = 0) const {
+  /// the stages one by one; on the voxel support its visit grid (Context::visit_grid) is the
+  /// iteration's grid at voxel size `cell` (the schedule's by default), which the clustering
+  /// stage must then use too.
+  [[nodiscard]] Context context(const Scn& scene, std::uint64_t iteration, std::uint32_t pass = 0,
+                                std::optional<T> cell = std::nullopt) const {
     if (pass >= options_.pixel_passes)
       throw std::invalid_argument("segpath::SegmentFiltering: pass " + std::to_string(pass) + " of " +
                                   std::to_string(options_.pixel_passes) + " pixel passes");
     Context ctx{scene, options_, iteration + 1};
     ctx.pass = pass;
     ctx.passes = options_.pixel_passes;
+    if (options_.support == FilteringSupport::voxel)
+      ctx.visit_grid = filtering::grid(options_, cell ? *cell : kernel_schedule(scene).at(iteration), ctx.stream);
     return ctx;
   }
 
@@ -142,18 +148,20 @@ class SegmentFiltering {
       seconds = std::chrono::duration<double>(now - last).count();
       last = now;
     };
-    Context ctx = context(scene, iteration, pass);
+    Context ctx = context(scene, iteration, pass, cell);
     FilteringStats& stats = ctx.stats;
     const Pool& pool = ctx.pool;
     build_pool(ctx, parallel_for);
     lap(stats.paths_seconds);
     stats.segments = pool.size();
     stats.next_event_segments = pool.next_event_segments;
-    for (auto f : pool.flags)
+    for (auto f : pool.flags) {
+      if (f & filtering::repeat_visit_born) ++stats.repeat_visit_segments;
       (f & filtering::camera_born      ? stats.camera_segments
        : f & filtering::bridge_segment ? stats.bridge_segments
        : f & filtering::extra_technique ? stats.extra_segments
                                         : stats.light_segments) += 1;
+    }
     stats.cell_size = double(cell);
 
     const std::size_t n = std::max<std::size_t>(pool.size(), 1);  // for the bytes per segment

@@ -6,10 +6,12 @@
 #include "segpath/algorithms/filtering/pool.hpp"
 #include "segpath/algorithms/filtering/technique_set.hpp"
 #include "segpath/concepts/scene.hpp"
+#include "segpath/kernels/voxel.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -66,6 +68,13 @@ struct Context {
   TechniqueSet techniques = technique_set(options);
   Pool<T, S> pool{};
   FilteringStats stats{};
+  /// Where set (render_pass on the voxel support: the iteration's own grid), a light path's
+  /// predecessor draw is a light technique sample only at the path's first visit of a voxel of
+  /// this grid; at a repeat visit the draw still continues the path, but what it draws is
+  /// repeat_visit_born and joins no chain. Counted at every visit, a path's own later visits
+  /// in the cluster of one of its segments raised that segment's D_l exactly when the segment
+  /// had been drawn, so BDPF was O(1 / N_L) dark (docs/filtering.md, "Known limits").
+  std::optional<VoxelGrid<T>> visit_grid{};
   /// Per pooled segment, sum_u N_u p_u(s) over the user's techniques (empty without any).
   std::vector<T> extra_density{};
 

@@ -148,9 +148,10 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
 
 /// One light path: the light-start segment (N30), then approximate light-side
 /// predecessors (N33) from each non-delta sensor end; it ends at a delta surface.
+/// `visits`: scratch for the voxel keys of the path's light technique samples (Context::visit_grid).
 template <LightSampledScene Scn>
 void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
-                      RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out) {
+                      RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out, std::vector<VoxelKey>& visits) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Scn& scene = ctx.scene;
@@ -189,6 +190,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   // "s was drawn by its chain successor" and then needs the successor's whole run of light
   // ancestors to fit; docs/bias-notes.md). Only the delta bounces of one chain are capped.
   const T continuation = T(ctx.techniques.light_continuation);
+  visits.clear();
   for (std::size_t delta_bounces = 0;;) {
     const SurfacePoint<T>& x = r.segment.x;
     std::optional<BsdfSample<S>> prev;
@@ -204,7 +206,8 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
       r.first_direction = -prev->direction;
       if (r.pieces < 0xffff) ++r.pieces;
       r.flags |= chain_segment | (kept ? kept_density : 0);
-      if (!kept) r.geometry = endpoint_cosine(r.segment.x, r.first_direction);  // a kept chain keeps its first G
+      // A kept chain keeps its first G; a repeat visit's draw stays in no chain (G = 0).
+      if (!kept && !(r.flags & repeat_visit_born)) r.geometry = endpoint_cosine(r.segment.x, r.first_direction);
       continue;
     }
     // Light arriving at x from behind a one-sided surface (the sun's and the sky's rays on the
@@ -217,7 +220,17 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
     // A technique sample whether or not its draw succeeded (see trace_camera_path); a
     // delta surface that does not continue the chain ends the light path.
     const bool tries_predecessor = attempted && ctx.techniques.light_predecessors && !(prev && prev->delta);
-    if (tries_predecessor) r.flags |= light_technique;
+    // A technique sample only at the path's first visit of a voxel (Context::visit_grid): the
+    // predecessor drawn at a repeat visit is no technique's sample. Light technique samples
+    // per path and voxel are then 0 or 1, fixed before the draw, as the weighting assumes.
+    bool first_visit = true;
+    if (tries_predecessor && ctx.visit_grid) {
+      if (const auto k = ctx.visit_grid->key(x); k.valid) {
+        first_visit = std::find(visits.begin(), visits.end(), k.key) == visits.end();
+        if (first_visit) visits.push_back(k.key);
+      }
+    }
+    if (tries_predecessor && first_visit) r.flags |= light_technique;
     // The roulette is part of the draw: a technique sample whose coin fails is a failed draw.
     const bool continues = tries_predecessor && prev && prev->pdf > T(0) && rng.template uniform<T>() < continuation;
     const auto index = std::uint32_t(out.size());
@@ -232,6 +245,10 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
     predecessor.chain = S(T(1));
     predecessor.geometry = geometry_term(predecessor.segment, -prev->direction, hit->distance);
     predecessor.parent = index;
+    if (!first_visit) {
+      predecessor.geometry = T(0);
+      predecessor.flags = repeat_visit_born;
+    }
     r = predecessor;
     delta_bounces = 0;
     chains = true;
@@ -296,7 +313,8 @@ void draw_paths(Context<Scn>& ctx, const P& parallel_for, std::size_t later_draw
     const std::uint64_t p0 = pixels * c / path_chunks, p1 = pixels * (c + 1) / path_chunks;
     for (std::uint64_t p = p0; p < p1; ++p) trace_camera_path(ctx, ctx.pixel(std::uint32_t(p)), camera[c]);
     const std::uint64_t l0 = light_paths * c / path_chunks, l1 = light_paths * (c + 1) / path_chunks;
-    for (std::uint64_t l = l0; l < l1; ++l) trace_light_path(ctx, l, light[c]);
+    std::vector<VoxelKey> visits;
+    for (std::uint64_t l = l0; l < l1; ++l) trace_light_path(ctx, l, light[c], visits);
   });
   camera.insert(camera.end(), std::make_move_iterator(light.begin()), std::make_move_iterator(light.end()));
   std::size_t records = 0, bridge_sources = 0;

@@ -26,14 +26,14 @@ namespace segpath::filtering {
 /// The path-conditioned propagation's memory per segment, besides the junction table
 /// (FilteringOptions::transfer_cache_bytes) and the copies of FilteringStats::propagation_copy_bytes:
 /// at most, per ending slot its W values, emission, end, class junctions and U index, per start
-/// its W values, start and U index, per segment its light side (LightSide) and the s-only factor
-/// of q_l. The U values of the segments a junction can force, and their indices, are in
-/// FilteringStats::forced_value_bytes.
+/// its W values, start and U index, per segment its light side (LightSide), the s-only factor
+/// of q_l and its backtrack partner (backtrack_partners). The U values of the segments a
+/// junction can force, and their indices, are in FilteringStats::forced_value_bytes.
 template <Spectrum S>
 inline constexpr std::size_t conditioned_bytes_per_segment =
     2 * sizeof(std::array<S, 2>) + sizeof(detail::ConditionedEmission<S>) + sizeof(detail::ConditionedEnd<spectrum_scalar_t<S>>) +
     sizeof(detail::ClassJunctions<S>) + sizeof(detail::ConditionedStart<spectrum_scalar_t<S>>) + 2 * sizeof(std::uint32_t) +
-    2 * sizeof(spectrum_scalar_t<S>) + sizeof(std::uint32_t) + 1;
+    2 * sizeof(spectrum_scalar_t<S>) + sizeof(std::uint32_t) + 1 + sizeof(std::uint32_t);
 
 /// Of conditioned_bytes_per_segment, what propagate_conditioned_pool allocates after it freed
 /// the pool's end points (PoolGeometry::release): all but the class junctions and the light side.
@@ -100,6 +100,21 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
   }
 }
 
+/// Per segment, the partner no chain of the path-conditioned propagation goes a round trip with
+/// (ConditionedInputs::backtrack): a light segment's is its light predecessor, a camera
+/// successor's (or next-event segment's) its parent; no_cluster elsewhere.
+template <Real T, Spectrum S, ParallelFor P>
+void backtrack_partners(const Pool<T, S>& pool, std::vector<std::uint32_t>& backtrack, const P& parallel_for) {
+  backtrack.assign(pool.size(), no_cluster);
+  parallel_for(pool.size(), [&](std::size_t i) {
+    const std::uint32_t t = pool.parent[i];
+    if (t >= pool.size()) return;
+    // One light predecessor per parent, so no two i write the same entry.
+    if (pool.flags[i] & camera_born) backtrack[i] = t;
+    else if (!(pool.flags[i] & not_light_born)) backtrack[t] = std::uint32_t(i);
+  });
+}
+
 /// Step 5 with the path-conditioned weighting; returns the weighted L per segment and G
 /// (the weights are inside: a sensor segment's pixel value is W G L).
 template <LightSampledScene Scn, class Support, ParallelFor P>
@@ -125,6 +140,8 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     }
   });
   auto light_pair = [&](std::uint32_t s, std::uint32_t sp) -> T { return light_pair_density(scene, pool, scale[s], s, sp); };
+  std::vector<std::uint32_t> backtrack;
+  backtrack_partners(pool, backtrack, parallel_for);
   if constexpr (!Support::factorisable) {
     auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
       return bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance}) *
@@ -133,7 +150,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     // D_lt = D_l (LightSide): side.density serves as both.
     const ConditionedInputs<S, decltype(link), decltype(light_pair)> inputs{
         pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.density, side.flags, link, light_pair,
-        pool.pieces, side.bridge_target_term, side.bridge_density};
+        pool.pieces, side.bridge_target_term, side.bridge_density, backtrack};
     const ConditionedMemory memory = propagate_conditioned(support, inputs, iterations, radiance, parallel_for);
     stats.lagged_bytes = memory.lagged;
     stats.forced_value_bytes = memory.forced_values;
@@ -183,7 +200,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
     const ConditionedInputs<S, TransferLink<Scn>, SlotLightPair> slot_inputs{
         pool.emitted, pool.geometry, pool.density, side.density, side.terms, side.density, side.flags,
         TransferLink<Scn>{scene.bsdf(), transfer}, SlotLightPair{light_pair, scene.bsdf(), transfer, starting_x, ending_scale},
-        pool.pieces, side.bridge_target_term, side.bridge_density};
+        pool.pieces, side.bridge_target_term, side.bridge_density, backtrack};
     // The junctions of the pairs that fit the cache budget are built once per pool. Once the
     // factorised clusters' q_l are in, everything reads the slot-ordered copies.
     auto by_id_done = [&] {
