@@ -16,8 +16,9 @@
 // "uniform": every light start density 1 / C. "stratified": uniform, and light path l starts at
 // cell l mod C (N / C per cell), so the light starts are not random and the light start's
 // density is exact. "first": a light path's predecessor draw is a technique sample only at the
-// path's first visit of a cell, and what it draws at a repeat visit joins no chain (the rule
-// of d0e8c30, which segment filtering does not apply: docs/figures.md, session 46).
+// path's first visit of a cell, and what it draws at a repeat visit joins no chain (segment
+// filtering's rule since session 47, filtering::Context::visit_grid; docs/figures.md, sessions 46
+// and 47).
 //
 // Measured (400,000 pools, max length 6, 8 cells): E / exact 0.957 / 0.966 / 0.977 / 0.985 /
 // 0.991 / 0.997 at N = 1 / 2 / 4 / 8 / 16 / 64; at N = 4, max length 2 / 3 / 4: 1.001 / 0.996 /
@@ -129,7 +130,7 @@ double estimate(const World& w, int light_paths, int max_length, bool stratified
     std::vector<bool> visited(C, false);
     while (true) {
       // With first_visits, a technique sample only at the path's first visit of a cell
-      // (d0e8c30, reverted); what a repeat visit draws is in no chain.
+      // (filtering::Context::visit_grid); what a repeat visit draws is in no chain.
       Drawn& generator = pool.back();
       const bool repeat = first_visits && visited[generator.x];
       visited[generator.x] = true;
