@@ -11,6 +11,7 @@
 #include <segpath/testing/two_threads.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <iterator>
 #include <limits>
 #include <string>
@@ -133,16 +134,134 @@ TEST_CASE("segment filtering: light paths have no depth limit, every light-born 
   auto ctx = filter.context(scene, 0);
   filter.build_pool(ctx);
   const auto& pool = ctx.pool;
-  std::size_t light = 0, beyond = 0;
+  std::size_t light = 0, beyond = 0, other = 0;
   for (std::size_t i = 0; i < pool.size(); ++i) {
     if (pool.flags[i] & filtering::not_light_born) continue;
     ++light;
-    CHECK((pool.flags[i] & filtering::light_technique) != 0);  // Lambertian slab: every x draws (or fails to)
+    // Lambertian slab: every x draws (or fails to), but at its path's repeat visit of a voxel
+    // (the next test), which a few paths round the torus make.
+    other += (pool.flags[i] & filtering::light_technique) ? 0 : 1;
     const std::uint32_t p = pool.parent[i];
     beyond += p != filtering::no_parent && pool.parent[p] != filtering::no_parent;  // a third segment
   }
   CHECK(light > 300);
+  CHECK(other * 100 < light);
   CHECK(beyond > 20);  // ~1/4 of 256 light paths
+}
+
+// The weighting counts at most one technique sample of a path per cluster (disk), fixed before
+// that sample draws (docs/filtering.md, "A light path's repeat visits"): a path's later visit of
+// a cluster exists only if what it drew at the first does. So a path draws a technique sample
+// only at its first visit of a voxel (Context::visit_grid), or where no disk around an earlier
+// technique sample of it holds the point (Context::visit_radius), both measured at the canonical
+// position as the support measures ends, and what it draws at a repeat visit joins no chain
+// (G = 0). On the periodic slab with voxels of 1/4 of the period (disks of the same area), paths
+// come back often, also round the torus.
+TEST_CASE("segment filtering: a path draws technique samples only at its first visit of a voxel or disk, also round a torus",
+          "[algorithms]") {
+  using Filter = SegmentFiltering<PhotographedSlab<double>>;
+  const PhotographedSlab<double> scene(furnace, 16);
+  for (const FilteringSupport support : {FilteringSupport::voxel, FilteringSupport::disk}) {
+    FilteringOptions<double> o;
+    o.max_length = 6;
+    o.initial_cell_size = 0.5;
+    o.seed = 11;
+    o.support = support;
+    o.next_event = false;  // below: every segment with a parent is the one its path drew next
+    const Filter filter(o);
+    auto ctx = filter.context(scene, 0);
+    filter.build_pool(ctx);
+    const auto& pool = ctx.pool;
+    Clustering<double> clustering;
+    if (support == FilteringSupport::voxel) {
+      REQUIRE(ctx.visit_grid);
+      filtering::cluster(ctx, *ctx.visit_grid, clustering, SerialFor{});
+    }
+    const double radius = 0.5 / std::sqrt(pi<double>);  // pi r^2 = h^2
+    // Whether vertex a (a segment and its end) is where vertex b is: the same cluster, or within
+    // the disk radius at the canonical positions; `unwrapped`: at the positions themselves.
+    struct Vertex {
+      std::uint32_t segment;
+      bool x_end;
+    };
+    const auto point = [&](Vertex v) -> const SurfacePoint<double>& { return v.x_end ? pool.segments[v.segment].x : pool.segments[v.segment].y; };
+    const auto same_place = [&](Vertex a, Vertex b, bool unwrapped) {
+      if (support == FilteringSupport::voxel && !unwrapped) {
+        const auto cluster = [&](Vertex v) { return v.x_end ? clustering.cluster_of_x(v.segment) : clustering.cluster_of_y(v.segment); };
+        return cluster(a) == cluster(b);
+      }
+      if (support == FilteringSupport::voxel) return ctx.visit_grid->key(point(a)).key == ctx.visit_grid->key(point(b)).key;
+      const Vec3<double> d = unwrapped ? point(a).position - point(b).position
+                                       : scene.canonical_position(point(a)) - scene.canonical_position(point(b));
+      return glm::dot(d, d) < radius * radius;
+    };
+    // Each path in the order it was drawn: a light path from its light start through its
+    // predecessors, a camera path from its sensor segment through its successors.
+    std::vector<std::uint32_t> drawn(pool.size(), filtering::no_parent);
+    for (std::uint32_t i = 0; i < pool.size(); ++i)
+      if (pool.parent[i] != filtering::no_parent) drawn[pool.parent[i]] = i;
+    std::size_t technique = 0, repeats = 0, round_the_torus = 0;
+    // The vertex at which segment i of a path draws the next: x for light paths, y for camera paths.
+    const auto check_path = [&](std::uint32_t first, bool light) {
+      std::vector<Vertex> earlier;  // the path's technique samples so far
+      std::size_t length = 0;
+      for (std::uint32_t i = first; i != filtering::no_parent; i = drawn[i]) {
+        length += pool.pieces[i];
+        const Vertex v{i, light};
+        // Lambertian planes: every surface vertex draws (the camera's below its max length).
+        const bool tries = point(v).kind == PointKind::surface && (light || length < o.max_length);
+        if (!tries) {
+          CHECK(drawn[i] == filtering::no_parent);
+          continue;
+        }
+        const auto visited = [&](bool unwrapped) {
+          return std::any_of(earlier.begin(), earlier.end(), [&](Vertex e) { return same_place(v, e, unwrapped); });
+        };
+        const bool first_visit = !visited(false);
+        const std::uint16_t flag = light ? filtering::light_technique : filtering::camera_technique;
+        CHECK(((pool.flags[i] & flag) != 0) == first_visit);
+        if (drawn[i] != filtering::no_parent) {
+          const std::uint32_t next = drawn[i];
+          CHECK(((pool.flags[next] & filtering::repeat_visit_born) != 0) == !first_visit);
+          if (!first_visit) CHECK(pool.geometry[next] == 0.0);
+          if (first_visit) CHECK(pool.geometry[next] > 0.0);
+        }
+        if (first_visit) {
+          earlier.push_back(v);
+          ++technique;
+        } else {
+          ++repeats;
+          round_the_torus += visited(true) ? 0 : 1;
+        }
+      }
+    };
+    for (std::uint32_t i = 0; i < pool.size(); ++i) {
+      if (pool.flags[i] & filtering::light_start) check_path(i, true);
+      if (pool.flags[i] & filtering::sensor_segment) check_path(i, false);
+    }
+    INFO(to_string(support) << ": " << technique << " technique samples, " << repeats << " repeat visits, " << round_the_torus
+                            << " of them round the torus");
+    CHECK(technique > 1000);
+    CHECK(repeats > 50);
+    CHECK(round_the_torus > 10);
+    // A next-event segment's density counts the camera technique points of its cluster (disk),
+    // so it is drawn from those only: a camera vertex that is none draws at most its successor.
+    o.next_event = true;
+    const Filter with_next_event(o);
+    auto ne = with_next_event.context(scene, 0);
+    with_next_event.build_pool(ne);
+    std::vector<int> children(ne.pool.size(), 0);
+    for (std::uint32_t i = 0; i < ne.pool.size(); ++i)
+      if ((ne.pool.flags[i] & filtering::camera_born) && ne.pool.parent[i] != filtering::no_parent) ++children[ne.pool.parent[i]];
+    std::size_t non_technique = 0;
+    for (std::uint32_t i = 0; i < ne.pool.size(); ++i) {
+      if (!(ne.pool.flags[i] & filtering::camera_born) || (ne.pool.flags[i] & filtering::camera_technique)) continue;
+      CHECK(children[i] <= 1);
+      non_technique += children[i];
+    }
+    CHECK(ne.pool.next_event_segments > 500);
+    CHECK(non_technique > 5);  // repeat visits that drew their successor
+  }
 }
 
 // A chain that joins a segment to the one that drew it (or that it drew) anywhere but at the
@@ -533,11 +652,11 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
   // test compiling until it is listed here, with the rule add_pass must merge it by.
   const auto filled = [](double base) {
     FilteringStats s;
-    auto& [segments, camera, light, bridge, clusters, next_event, extra, repeat_visits, junctions, factorised_camera, factorised_light,
+    auto& [segments, camera, light, bridge, clusters, next_event, extra, repeat_visits, camera_repeat_visits, junctions, factorised_camera, factorised_light,
            factorised_transfer, pair_evaluations, cell_size, bytes_per_segment, transfer_cache, propagation_copy, lagged,
            forced_values, records, record_slack, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = s;
     std::uint64_t count = static_cast<std::uint64_t>(base);
-    for (std::uint64_t* c : {&segments, &camera, &light, &bridge, &clusters, &next_event, &extra, &repeat_visits, &junctions,
+    for (std::uint64_t* c : {&segments, &camera, &light, &bridge, &clusters, &next_event, &extra, &repeat_visits, &camera_repeat_visits, &junctions,
                              &factorised_camera, &factorised_light, &factorised_transfer, &pair_evaluations})
       *c = count++;
     cell_size = 0.25;  // one iteration: every pass has the same cell
@@ -552,7 +671,7 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
   for (const auto& [first, second] : {std::pair{a, b}, std::pair{b, a}}) {
     FilteringStats m = first;
     m.add_pass(second);
-    const auto& [segments, camera, light, bridge, clusters, next_event, extra, repeat_visits, junctions, factorised_camera, factorised_light,
+    const auto& [segments, camera, light, bridge, clusters, next_event, extra, repeat_visits, camera_repeat_visits, junctions, factorised_camera, factorised_light,
                  factorised_transfer, pair_evaluations, cell_size, bytes_per_segment, transfer_cache, propagation_copy, lagged,
                  forced_values, records, record_slack, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = m;
     CHECK(segments == a.segments + b.segments);
@@ -563,6 +682,7 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
     CHECK(next_event == a.next_event_segments + b.next_event_segments);
     CHECK(extra == a.extra_segments + b.extra_segments);
     CHECK(repeat_visits == a.repeat_visit_segments + b.repeat_visit_segments);
+    CHECK(camera_repeat_visits == a.camera_repeat_visit_segments + b.camera_repeat_visit_segments);
     CHECK(junctions == a.junctions + b.junctions);
     CHECK(factorised_camera == a.factorised_camera_clusters + b.factorised_camera_clusters);
     CHECK(factorised_light == a.factorised_light_clusters + b.factorised_light_clusters);

@@ -94,8 +94,11 @@ class SegmentFiltering {
     Context ctx{scene, options_, iteration + 1};
     ctx.pass = pass;
     ctx.passes = options_.pixel_passes;
+    const T size = cell ? *cell : kernel_schedule(scene).at(iteration);
     if (options_.support == FilteringSupport::voxel)
-      ctx.visit_grid = filtering::grid(options_, cell ? *cell : kernel_schedule(scene).at(iteration), ctx.stream);
+      ctx.visit_grid = filtering::grid(options_, size, ctx.stream);
+    else
+      ctx.visit_radius = filtering::disk_radius(size);
     return ctx;
   }
 
@@ -156,7 +159,7 @@ class SegmentFiltering {
     stats.segments = pool.size();
     stats.next_event_segments = pool.next_event_segments;
     for (auto f : pool.flags) {
-      if (f & filtering::repeat_visit_born) ++stats.repeat_visit_segments;
+      if (f & filtering::repeat_visit_born) ++(f & filtering::camera_born ? stats.camera_repeat_visit_segments : stats.repeat_visit_segments);
       (f & filtering::camera_born      ? stats.camera_segments
        : f & filtering::bridge_segment ? stats.bridge_segments
        : f & filtering::extra_technique ? stats.extra_segments

@@ -58,17 +58,15 @@
 // samples: with B' = B less a target successor's term, alpha_i(bridge) = B' / G, G = D - D_l -
 // (B - B') + e Lambda, and a bridge-born s_i has r_i = B' / (G B) (conditioned_coefficients;
 // docs/filtering.md).
-// What this assumes of the pool: a light path holds at most one light technique sample per
-// cluster. Its later visits of a cluster exist only if what it drew at the first does, so
-// counted in D_l they raise it exactly where that segment was drawn: O(1 / N_L) dark, -0.2 %
-// with 256 light paths (docs/filtering.md). Segment filtering's light paths are technique
-// samples at their first visit of a voxel only (filtering::Context::visit_grid).
+// What this assumes of the pool: a path holds at most one technique sample per cluster. Its
+// later visits of a cluster exist only if what it drew at the first does, so counted in D they
+// raise it exactly where that segment was drawn: O(1 / N_L) dark, -0.2 % with 256 light paths
+// (docs/filtering.md). Segment filtering's light and camera paths are technique samples at
+// their first visit of a voxel only (filtering::Context::visit_grid).
 // Remaining bias: a technique sample that is the pool successor of a chain segment but not in
 // the chain, in another chain segment's cluster (its presence depends on how the chain was
 // drawn; also O(1 / N_L), -0.15 +- 0.07 % with a single light path in
-// docs/experiments/few_light_paths.cpp's world of 64 cells); a camera path's repeat visits
-// (the same term on the camera side; in that world, first visits on the camera side too moved
-// the mean by +0.03 %); a technique sample used twice by
+// docs/experiments/few_light_paths.cpp's world of 64 cells); a technique sample used twice by
 // one chain (revisits) other than s -> s, which is never a junction (propagation/propagate.hpp),
 // and a -> b -> a between a segment and the one that drew it, which is taken out
 // (ConditionedInputs::backtrack, propagation/round_trips.hpp): on box 3's glossy floor such round

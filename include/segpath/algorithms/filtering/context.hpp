@@ -69,12 +69,19 @@ struct Context {
   Pool<T, S> pool{};
   FilteringStats stats{};
   /// Where set (render_pass on the voxel support: the iteration's own grid), a light path's
-  /// predecessor draw is a light technique sample only at the path's first visit of a voxel of
-  /// this grid; at a repeat visit the draw still continues the path, but what it draws is
-  /// repeat_visit_born and joins no chain. Counted at every visit, a path's own later visits
-  /// in the cluster of one of its segments raised that segment's D_l exactly when the segment
-  /// had been drawn, so BDPF was O(1 / N_L) dark (docs/filtering.md, "Known limits").
+  /// predecessor draw and a camera path's successor draw (with its next-event draw) are
+  /// technique samples only at the path's first visit of a voxel of this grid, keyed by the
+  /// scene's canonical position as the clustering keys; at a repeat visit the draw still
+  /// continues the path, but what it draws is repeat_visit_born and joins no chain. Counted at
+  /// every visit, a path's own later visits in the cluster of one of its segments raised that
+  /// segment's D exactly when the segment had been drawn, so BDPF was O(1 / N_L) dark
+  /// (docs/filtering.md, "Known limits").
   std::optional<VoxelGrid<T>> visit_grid{};
+  /// The same rule on the disk support (render_pass: the iteration's disk radius r): a draw is
+  /// a technique sample only where no earlier technique sample of its path lies within r
+  /// (canonical positions, as DiskJunctions measures), so no disk around a path's technique
+  /// sample holds a later one. 0: every visit counts.
+  T visit_radius = 0;
   /// Per pooled segment, sum_u N_u p_u(s) over the user's techniques (empty without any).
   std::vector<T> extra_density{};
 

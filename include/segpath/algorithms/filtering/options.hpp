@@ -115,9 +115,9 @@ struct FilteringStats {
   std::uint64_t segments = 0, camera_segments = 0, light_segments = 0, bridge_segments = 0, clusters = 0;
   std::uint64_t next_event_segments = 0;  ///< among the camera segments
   std::uint64_t extra_segments = 0;  ///< drawn by the user's techniques (FilteringTechnique)
-  /// Among the light segments: drawn at a light path's repeat visit of a voxel, in no chain
-  /// (filtering::repeat_visit_born).
-  std::uint64_t repeat_visit_segments = 0;
+  /// Among the light (camera) segments: drawn at a light (camera) path's repeat visit of a
+  /// voxel, in no chain (filtering::repeat_visit_born).
+  std::uint64_t repeat_visit_segments = 0, camera_repeat_visit_segments = 0;
   std::uint64_t junctions = 0;  ///< disk support: (end, start) pairs within r
   std::uint64_t factorised_camera_clusters = 0, factorised_light_clusters = 0, factorised_transfer_clusters = 0;
   std::uint64_t pair_evaluations = 0;  ///< technique-density and transfer evaluations
@@ -155,6 +155,7 @@ struct FilteringStats {
     segments += p.segments, camera_segments += p.camera_segments, light_segments += p.light_segments;
     bridge_segments += p.bridge_segments, clusters += p.clusters, next_event_segments += p.next_event_segments;
     extra_segments += p.extra_segments, junctions += p.junctions, repeat_visit_segments += p.repeat_visit_segments;
+    camera_repeat_visit_segments += p.camera_repeat_visit_segments;
     factorised_camera_clusters += p.factorised_camera_clusters, factorised_light_clusters += p.factorised_light_clusters;
     factorised_transfer_clusters += p.factorised_transfer_clusters, pair_evaluations += p.pair_evaluations;
     bytes_per_segment = std::max(bytes_per_segment, p.bytes_per_segment);

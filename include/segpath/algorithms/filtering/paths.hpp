@@ -6,6 +6,7 @@
 #pragma once
 
 #include "segpath/algorithms/filtering/context.hpp"
+#include "segpath/algorithms/filtering/support.hpp"
 #include "segpath/concepts/bsdf.hpp"
 #include "segpath/core/geometry.hpp"
 #include "segpath/core/parallel.hpp"
@@ -56,12 +57,48 @@ void add_next_event(const Scn& scene, std::uint32_t source, const SurfacePoint<t
   out.push_back(r);
 }
 
+/// Where a path drew its technique samples so far: their voxels (Context::visit_grid) or their
+/// positions (Context::visit_radius). Scratch, cleared per path.
+template <Real T>
+struct PathVisits {
+  std::vector<VoxelKey> voxels;
+  std::vector<Vec3<T>> positions;
+  void clear() noexcept { voxels.clear(), positions.clear(); }
+};
+
+/// Whether a draw at p is its path's first visit of p's voxel (of no disk around an earlier
+/// technique sample of the path), which `visits` then records; true where every visit counts.
+/// Measured as the support measures an end (support.hpp): by the scene's canonical position, so
+/// that on a periodic domain a path that comes round to its voxel's image visits it again.
+template <LightSampledScene Scn>
+[[nodiscard]] bool first_visit_of(const Context<Scn>& ctx, const SurfacePoint<typename Scn::Scalar>& p,
+                                  PathVisits<typename Scn::Scalar>& visits) {
+  using T = typename Scn::Scalar;
+  if (!ctx.visit_grid && !(ctx.visit_radius > T(0))) return true;
+  if (p.kind != PointKind::surface) return true;
+  const Vec3<T> at = canonical_map(ctx.scene)(p);
+  if (ctx.visit_grid) {
+    SurfacePoint<T> q = p;
+    q.position = at;
+    const auto k = ctx.visit_grid->key(q);
+    if (!k.valid) return true;
+    if (std::find(visits.voxels.begin(), visits.voxels.end(), k.key) != visits.voxels.end()) return false;
+    visits.voxels.push_back(k.key);
+    return true;
+  }
+  const T r2 = ctx.visit_radius * ctx.visit_radius;
+  for (const Vec3<T>& v : visits.positions)
+    if (glm::dot(at - v, at - v) < r2) return false;
+  visits.positions.push_back(at);
+  return true;
+}
+
 /// One camera path: the sensor segment, then approximate successors (N33) from each
 /// non-delta end; delta bounces extend the current segment into a chain. MVF and BDPF go
 /// to max_length segments (delta bounces count), PhF keeps only the sensor segment.
 template <LightSampledScene Scn>
 void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
-                       RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out) {
+                       RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out, PathVisits<typename Scn::Scalar>& visits) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Scn& scene = ctx.scene;
@@ -85,6 +122,7 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
   S chain(T(1));
   std::size_t pieces = 1;
   const auto& bsdf = scene.bsdf();
+  visits.clear();
   for (;;) {
     // Follow delta bounces: the segment continues through them.
     std::optional<BsdfSample<S>> next;
@@ -110,27 +148,35 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
     r.segment.y = y;
     r.last_direction = direction;
     r.chain = chain;
-    r.geometry = (r.flags & chain_segment) ? endpoint_cosine(r.segment.x, r.first_direction)
-                                           : geometry_term(r.segment, direction, distance);
+    // A repeat visit's draw stays in no chain (G = 0), through delta bounces too.
+    if (!(r.flags & repeat_visit_born))
+      r.geometry = (r.flags & chain_segment) ? endpoint_cosine(r.segment.x, r.first_direction)
+                                             : geometry_term(r.segment, direction, distance);
     // Every attempted successor draw is a technique sample, including draws that failed:
     // SMIS/MMIS denominators sum over all technique samples (N11, N39); leaving the failed
     // ones out would underestimate D and bias the image upwards (glossy lobes at grazing
     // angles fail often).
     const bool attempted = ctx.techniques.camera_successors && pieces < max_pieces && y.kind == PointKind::surface;
-    if (attempted) r.flags |= camera_technique;
+    // A technique sample only at the path's first visit of a voxel (Context::visit_grid), as a
+    // light path's: a later visit exists only if the successor drawn at the first does, so
+    // counted in that successor's D_c it would raise it exactly where it was drawn. The
+    // next-event draw, whose density counts the camera technique points, goes with it.
+    const bool first_visit = !attempted || first_visit_of(ctx, y, visits);
+    const bool technique = attempted && first_visit;
+    if (technique) r.flags |= camera_technique;
     // The roulette is part of the draw (as in trace_light_path); no coin is drawn without one.
     const bool continues = attempted && next && !next->delta && next->pdf > T(0) &&
                            (continuation >= T(1) || rng.template uniform<T>() < continuation);
     const auto index = std::uint32_t(out.size());
     out.push_back(r);
-    if (attempted && ctx.techniques.next_event) add_next_event(scene, index, r.segment.y, rng, out);
+    if (technique && ctx.techniques.next_event) add_next_event(scene, index, r.segment.y, rng, out);
     if (!continues) return;
     // The approximate successor (N33): starts exactly at y, direction from the BSDF at y.
     const auto hit = scene.intersect(IntersectQuery<T>{Ray<T>{y.position, next->direction}});
     Record<T, S> successor;
     successor.segment.x = y;
     successor.first_direction = next->direction;
-    successor.flags = camera_born;
+    successor.flags = std::uint16_t(camera_born | (first_visit ? 0 : repeat_visit_born));
     successor.parent = index;
     r = successor;
     direction = next->direction;
@@ -148,10 +194,10 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
 
 /// One light path: the light-start segment (N30), then approximate light-side
 /// predecessors (N33) from each non-delta sensor end; it ends at a delta surface.
-/// `visits`: scratch for the voxel keys of the path's light technique samples (Context::visit_grid).
+/// `visits`: scratch for where the path drew its technique samples (first_visit_of).
 template <LightSampledScene Scn>
 void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
-                      RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out, std::vector<VoxelKey>& visits) {
+                      RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out, PathVisits<typename Scn::Scalar>& visits) {
   using T = typename Scn::Scalar;
   using S = typename Scn::Spectrum;
   const Scn& scene = ctx.scene;
@@ -223,13 +269,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
     // A technique sample only at the path's first visit of a voxel (Context::visit_grid): the
     // predecessor drawn at a repeat visit is no technique's sample. Light technique samples
     // per path and voxel are then 0 or 1, fixed before the draw, as the weighting assumes.
-    bool first_visit = true;
-    if (tries_predecessor && ctx.visit_grid) {
-      if (const auto k = ctx.visit_grid->key(x); k.valid) {
-        first_visit = std::find(visits.begin(), visits.end(), k.key) == visits.end();
-        if (first_visit) visits.push_back(k.key);
-      }
-    }
+    const bool first_visit = !tries_predecessor || first_visit_of(ctx, x, visits);
     if (tries_predecessor && first_visit) r.flags |= light_technique;
     // The roulette is part of the draw: a technique sample whose coin fails is a failed draw.
     const bool continues = tries_predecessor && prev && prev->pdf > T(0) && rng.template uniform<T>() < continuation;
@@ -311,9 +351,9 @@ void draw_paths(Context<Scn>& ctx, const P& parallel_for, std::size_t later_draw
   std::vector<RecordList<T, S>> camera(path_chunks), light(path_chunks);
   parallel_for(path_chunks, [&](std::size_t c) {
     const std::uint64_t p0 = pixels * c / path_chunks, p1 = pixels * (c + 1) / path_chunks;
-    for (std::uint64_t p = p0; p < p1; ++p) trace_camera_path(ctx, ctx.pixel(std::uint32_t(p)), camera[c]);
+    PathVisits<T> visits;
+    for (std::uint64_t p = p0; p < p1; ++p) trace_camera_path(ctx, ctx.pixel(std::uint32_t(p)), camera[c], visits);
     const std::uint64_t l0 = light_paths * c / path_chunks, l1 = light_paths * (c + 1) / path_chunks;
-    std::vector<VoxelKey> visits;
     for (std::uint64_t l = l0; l < l1; ++l) trace_light_path(ctx, l, light[c], visits);
   });
   camera.insert(camera.end(), std::make_move_iterator(light.begin()), std::make_move_iterator(light.end()));

@@ -25,9 +25,9 @@ enum PoolFlag : std::uint16_t {
   transmission_chain = 256, ///< a chain through a delta transmission
   extra_technique = 512,    ///< drawn by a technique of the user's list (FilteringTechnique)
   kept_density = 1024,      ///< a chain only its light start draws (kept_chain): its D is the draw's, Record::density
-  /// A light predecessor drawn at its light path's repeat visit of a voxel (Context::visit_grid):
-  /// no technique in any denominator drew it, so it joins no chain (G = 0); it still tries a
-  /// predecessor of its own (paths.hpp, trace_light_path).
+  /// A light predecessor (camera successor) drawn at its path's repeat visit of a voxel
+  /// (Context::visit_grid): no technique in any denominator drew it, so it joins no chain
+  /// (G = 0); it still tries a draw of its own (paths.hpp).
   repeat_visit_born = 2048,
 };
 
