@@ -721,10 +721,11 @@ TEST_CASE("BDPF's image mean is PT's in a closed diffuse box at max length 2, 3 
 // light path's own later visits of the cluster of one of its segments were counted in that
 // segment's D_l, and such visits happen only when the segment was drawn, so BDPF was
 // O(1 / N_L) dark: -0.20 +- 0.03 % here at max length 10 (docs/filtering.md). A predecessor
-// draw is now a light technique sample only at its path's first visit of a voxel
-// (filtering::Context::visit_grid), and chains no longer go round trips between a segment and
-// its own light predecessor or camera parent (ConditionedInputs::backtrack): 0.99892 +- 0.00041.
-// Power (checked): with every visit counted, as before, this fails (0.99814 +- 0.00041).
+// (successor) draw is now a light (camera) technique sample only at its path's first visit of a
+// voxel (filtering::Context::visit_grid), and chains no longer go round trips between a segment
+// and its own light predecessor or camera parent (ConditionedInputs::backtrack): 0.99913 +-
+// 0.00041 (0.99892 with the light paths' rule alone). Power (checked in session 47): with every
+// visit counted on both sides, as before, this fails (0.99814 +- 0.00041).
 #if SEGPATH_TEST_OBJ_SCENES
 TEST_CASE("BDPF's image mean is PT's in the closed diffuse box with 256 light paths an iteration", "[renderer][stat]") {
   constexpr std::uint32_t side = 32;
