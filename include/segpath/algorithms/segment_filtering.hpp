@@ -179,7 +179,7 @@ class SegmentFiltering {
     const bool conditioned = path_conditioned(options_);
     if (options_.support == FilteringSupport::voxel) {
       Clustering<T> clustering;
-      const auto grid = filtering::grid(options_, cell, ctx.stream);
+      const VoxelGrid<T>& grid = *ctx.visit_grid;  // the grid the paths' first visits were keyed on
       // The path-conditioned propagation reads the pool by slot the most: there the renumbering
       // pays for itself; with the paper's weighting it costs what it saves (docs/figures.md).
       if (conditioned) filtering::cluster_in_slot_order(ctx, grid, clustering, parallel_for);
@@ -208,7 +208,7 @@ class SegmentFiltering {
       }
     } else {
       DiskJunctions<T> junctions;
-      filtering::join(ctx, filtering::disk_radius(cell), junctions, parallel_for);
+      filtering::join(ctx, ctx.visit_radius, junctions, parallel_for);  // the radius of the paths' first visits
       stats.junctions = junctions.junction_count();
       lap(stats.support_seconds);
       filtering::compute_densities(ctx, junctions, parallel_for, conditioned ? &side : nullptr);
