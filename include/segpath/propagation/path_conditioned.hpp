@@ -42,35 +42,22 @@
 // and r_k = 1 / D(s_k) unless forced. The camera side needs no pair density at all (alpha
 // conditions on the actual predecessor, whose camera technique is in D_c already, so a camera
 // technique that also draws next-event segments only has to be in D); the light side needs
-// q_l(s | s') of every junction. Toy check (layers of discrete clusters, bias_exp/toy2.cpp,
-// not in the tree, with Lambda = D_l' + q_l): expectation 0.9996 +- 0.0004 (2 layers of 100
-// clusters), 1.0007 +- 0.0006 (3 of 30), 0.99997 +- 0.0006 (2 of 3), where the paper's gives
-// 1.0439, 1.0249, 1.0008.
-// Why Lambda leaves q_l out when D_l' > 0: any Lambda that does not depend on sigma (q_l counts
-// s_{i+1} as a light technique whether it is one or not) keeps sum alpha = 1, but D_l' + q_l
-// over-weights the realised light birth by (D_l' + q_l) / D_l' when s_{i+1} is not a light
-// technique sample (a light path's last segment, a camera-born start): on Cornell box 1 a chain
-// floor -> mirror sphere -> floor with q_l / D_l' ~ 70 made a 250x firefly. With D_l' alone
-// that birth gets 1 / D, and the light mass through s_{i+1} is only needed where nothing else
-// can draw s_i. Checked by the sparse slab furnace (z 0.02) and box 1 against PT; relMSE at 30 s
-// on box 1 0.0044 -> 0.0038.
+// q_l(s | s') of every junction.
+// Why Lambda leaves q_l out when D_l' > 0: any Lambda that does not depend on sigma keeps
+// sum alpha = 1, but D_l' + q_l over-weights the realised light birth by (D_l' + q_l) / D_l'
+// when s_{i+1} is not a light technique sample (a light path's last segment, a camera-born
+// start); the light mass through s_{i+1} is only needed where nothing else can draw s_i
+// (docs/filtering.md, "The path-conditioned weighting's checks").
 // Bridges count the successor among their targets as D_l counts it among the light technique
 // samples: with B' = B less a target successor's term, alpha_i(bridge) = B' / G, G = D - D_l -
 // (B - B') + e Lambda, and a bridge-born s_i has r_i = B' / (G B) (conditioned_coefficients;
 // docs/filtering.md).
-// What this assumes of the pool: a path holds at most one technique sample per cluster. Its
-// later visits of a cluster exist only if what it drew at the first does, so counted in D they
-// raise it exactly where that segment was drawn: O(1 / N_L) dark, -0.2 % with 256 light paths
-// (docs/filtering.md). Segment filtering's light and camera paths are technique samples at
-// their first visit of a voxel only (filtering::Context::visit_grid).
-// Remaining bias: a technique sample that is the pool successor of a chain segment but not in
-// the chain, in another chain segment's cluster (its presence depends on how the chain was
-// drawn; also O(1 / N_L), -0.15 +- 0.07 % with a single light path in
-// docs/experiments/few_light_paths.cpp's world of 64 cells); a technique sample used twice by
-// one chain (revisits) other than s -> s, which is never a junction (propagation/propagate.hpp),
-// and a -> b -> a between a segment and the one that drew it, which is taken out
-// (ConditionedInputs::backtrack, propagation/round_trips.hpp): on box 3's glossy floor such round
-// trips, forced at each return, gained ~14x each (docs/filtering.md, "Round trips").
+// What this assumes of the pool: a path holds at most one technique sample per cluster, fixed
+// before that sample draws (segment filtering's paths are technique samples at their first
+// visit only: filtering::Context::visit_grid), and no chain uses a segment twice: s -> s is
+// never a junction (propagation/propagate.hpp) and a -> b -> a between a segment and the one
+// that drew it is taken out (ConditionedInputs::backtrack, propagation/round_trips.hpp).
+// What remains of the bias, O(1 / N_L): docs/filtering.md, "Known limits".
 //
 // The recursion: r_i depends on s_{i+1} and on two bits, e(s_i) (from the suffix) and "forced"
 // (from the predecessor), so each segment carries four values, U_e and W_e for e in {0, 1}:
