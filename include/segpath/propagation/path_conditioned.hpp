@@ -32,13 +32,9 @@
 //   r_i = e Lambda / (G(s_i) D_l(s_i))                  light-born s_i,
 //   r_i = 1 / D_lt(s_i)                                 forced (after the case above; 0 unless s_i
 //                                                        is a light technique sample),
-// where D_lt <= D_l keeps the light generators whose child tries a predecessor (where light paths
-// stop at a depth, a light birth is a light *technique* birth only with part of D_l; alpha splits
-// the light mass between "technique" and "not" in that proportion, so only the forced case
-// sees it; this is exact for one forced segment only: a run of n forced segments needs light
-// generators n levels short of the depth limit, and a run that cannot fit loses its alpha mass,
-// so segment filtering's light paths have no depth limit, Russian roulette instead, and there
-// D_lt = D_l),
+// where D_lt <= D_l keeps the light generators whose child tries a predecessor (exact for one
+// forced segment only where light paths stop at a depth, so segment filtering's light paths
+// end by Russian roulette instead and D_lt = D_l; docs/bias-notes.md),
 // and r_k = 1 / D(s_k) unless forced. The camera side needs no pair density at all (alpha
 // conditions on the actual predecessor, whose camera technique is in D_c already, so a camera
 // technique that also draws next-event segments only has to be in D); the light side needs
@@ -48,16 +44,12 @@
 // when s_{i+1} is not a light technique sample (a light path's last segment, a camera-born
 // start); the light mass through s_{i+1} is only needed where nothing else can draw s_i
 // (docs/filtering.md, "The path-conditioned weighting's checks").
-// Bridges count the successor among their targets as D_l counts it among the light technique
-// samples: with B' = B less a target successor's term, alpha_i(bridge) = B' / G, G = D - D_l -
-// (B - B') + e Lambda, and a bridge-born s_i has r_i = B' / (G B) (conditioned_coefficients;
-// docs/filtering.md).
-// What this assumes of the pool: a path holds at most one technique sample per cluster, fixed
-// before that sample draws (segment filtering's paths are technique samples at their first
-// visit only: filtering::Context::visit_grid), and no chain uses a segment twice: s -> s is
-// never a junction (propagation/propagate.hpp) and a -> b -> a between a segment and the one
-// that drew it is taken out (ConditionedInputs::backtrack, propagation/round_trips.hpp).
-// What remains of the bias, O(1 / N_L): docs/filtering.md, "Known limits".
+// Bridges: a target successor's term leaves the bridge density B as s_{i+1}'s leaves D_l, and a
+// bridge-born s_i has r_i = B' / (G B) (conditioned_junction.hpp, conditioned_coefficients).
+// Assumed of the pool: a path holds at most one technique sample per cluster, fixed before it
+// draws (filtering::Context::visit_grid), and no chain uses a segment twice (s -> s is never a
+// junction; a -> b -> a between a segment and the one that drew it is taken out:
+// ConditionedInputs::backtrack). The remaining O(1 / N_L) bias: docs/filtering.md, "Known limits".
 //
 // The recursion: r_i depends on s_{i+1} and on two bits, e(s_i) (from the suffix) and "forced"
 // (from the predecessor), so each segment carries four values, U_e and W_e for e in {0, 1}:
