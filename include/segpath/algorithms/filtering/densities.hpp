@@ -80,7 +80,7 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
   parallel_for(clusters.size(), [&](std::size_t c) {
     const Cluster<T>& cl = clusters[c];
     const auto starting = clustering.starting_segments(c), ending = clustering.ending_segments(c);
-    // Camera technique samples: segments ending here that were continued; they could draw any
+    // Camera technique samples: segments ending here that tried a successor; they could draw any
     // segment starting here (x' in the voxel). Density (N31) with the voxel kernel K_C.
     const std::uint32_t m = count(ending, flagged(camera_technique));
     camera_points[c] = m;

@@ -152,10 +152,10 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
     if (!(r.flags & repeat_visit_born))
       r.geometry = (r.flags & chain_segment) ? endpoint_cosine(r.segment.x, r.first_direction)
                                              : geometry_term(r.segment, direction, distance);
-    // Every attempted successor draw is a technique sample, including draws that failed:
-    // SMIS/MMIS denominators sum over all technique samples (N11, N39); leaving the failed
-    // ones out would underestimate D and bias the image upwards (glossy lobes at grazing
-    // angles fail often).
+    // Every attempted successor draw at a first visit is a technique sample, including draws
+    // that failed: SMIS/MMIS denominators sum over all technique samples (N11, N39); leaving
+    // the failed ones out would underestimate D and bias the image upwards (glossy lobes at
+    // grazing angles fail often).
     const bool attempted = ctx.techniques.camera_successors && pieces < max_pieces && y.kind == PointKind::surface;
     // A technique sample only at the path's first visit of a voxel (Context::visit_grid), as a
     // light path's: a later visit exists only if the successor drawn at the first does, so
@@ -237,6 +237,9 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   // ancestors to fit; docs/bias-notes.md). Only the delta bounces of one chain are capped.
   const T continuation = T(ctx.techniques.light_continuation);
   visits.clear();
+  // The light point y counts as visited: a later technique sample of the path near it exists
+  // only if this segment was drawn, and would be counted in its D_l.
+  (void)first_visit_of(ctx, r.segment.y, visits);
   for (std::size_t delta_bounces = 0;;) {
     const SurfacePoint<T>& x = r.segment.x;
     std::optional<BsdfSample<S>> prev;

@@ -17,8 +17,8 @@ enum PoolFlag : std::uint16_t {
   sensor_segment = 1,       ///< s_1 of a camera path
   camera_born = 2,          ///< drawn by the camera side
   chain_segment = 4,        ///< contains delta vertices: (area x, solid angle x) measure
-  camera_technique = 8,     ///< a camera successor draw was attempted from it
-  light_technique = 16,     ///< a light predecessor draw was attempted from it
+  camera_technique = 8,     ///< a camera successor draw was attempted from it at its path's first visit
+  light_technique = 16,     ///< a light predecessor draw was attempted from it at its path's first visit
   light_start = 32,         ///< drawn by the light-start sampler
   delta_light = 64,         ///< its light end is a Dirac (point light, sun): only light sampling draws it
   bridge_segment = 128,     ///< drawn by the bridge technique
