@@ -11,6 +11,7 @@
 #include <segpath/testing/two_threads.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <iterator>
 #include <limits>
@@ -179,7 +180,8 @@ TEST_CASE("segment filtering: a path draws technique samples only at its first v
     }
     const double radius = 0.5 / std::sqrt(pi<double>);  // pi r^2 = h^2
     // Whether vertex a (a segment and its end) is where vertex b is: the same cluster, or within
-    // the disk radius at the canonical positions; `unwrapped`: at the positions themselves.
+    // twice the disk radius at the canonical positions (a disk of radius r could hold both);
+    // `unwrapped`: at the positions themselves.
     struct Vertex {
       std::uint32_t segment;
       bool x_end;
@@ -193,20 +195,29 @@ TEST_CASE("segment filtering: a path draws technique samples only at its first v
       if (support == FilteringSupport::voxel) return ctx.visit_grid->key(point(a)).key == ctx.visit_grid->key(point(b)).key;
       const Vec3<double> d = unwrapped ? point(a).position - point(b).position
                                        : scene.canonical_position(point(a)) - scene.canonical_position(point(b));
-      return glm::dot(d, d) < radius * radius;
+      return glm::dot(d, d) < 4 * radius * radius;
     };
     // Each path in the order it was drawn: a light path from its light start through its
     // predecessors, a camera path from its sensor segment through its successors.
     std::vector<std::uint32_t> drawn(pool.size(), filtering::no_parent);
     for (std::uint32_t i = 0; i < pool.size(); ++i)
       if (pool.parent[i] != filtering::no_parent) drawn[pool.parent[i]] = i;
-    std::size_t technique = 0, repeats = 0, round_the_torus = 0;
+    // Per side (0 camera, 1 light): technique samples, repeat visits, and of those the ones
+    // round the torus. `held`: every technique sample the pool flags (and light point), with its
+    // path's number.
+    std::array<std::size_t, 2> technique{}, repeats{}, round_the_torus{};
+    std::vector<std::pair<Vertex, std::size_t>> held;
+    std::size_t paths = 0;
     // The vertex at which segment i of a path draws the next: x for light paths, y for camera paths.
     const auto check_path = [&](std::uint32_t first, bool light) {
+      const std::size_t path = paths++;
       std::vector<Vertex> earlier;  // the path's technique samples so far
       // A light path's light point counts as visited: its light start's D_l would count a
       // later technique sample of the path near it.
-      if (light && pool.segments[first].y.kind == PointKind::surface) earlier.push_back(Vertex{first, false});
+      if (light && pool.segments[first].y.kind == PointKind::surface) {
+        earlier.push_back(Vertex{first, false});
+        held.emplace_back(Vertex{first, false}, path);
+      }
       std::size_t length = 0;
       for (std::uint32_t i = first; i != filtering::no_parent; i = drawn[i]) {
         length += pool.pieces[i];
@@ -229,12 +240,13 @@ TEST_CASE("segment filtering: a path draws technique samples only at its first v
           if (!first_visit) CHECK(pool.geometry[next] == 0.0);
           if (first_visit) CHECK(pool.geometry[next] > 0.0);
         }
+        if (pool.flags[i] & flag) held.emplace_back(v, path);  // as the pool has it
         if (first_visit) {
           earlier.push_back(v);
-          ++technique;
+          ++technique[light];
         } else {
-          ++repeats;
-          round_the_torus += visited(true) ? 0 : 1;
+          ++repeats[light];
+          round_the_torus[light] += visited(true) ? 0 : 1;
         }
       }
     };
@@ -242,11 +254,35 @@ TEST_CASE("segment filtering: a path draws technique samples only at its first v
       if (pool.flags[i] & filtering::light_start) check_path(i, true);
       if (pool.flags[i] & filtering::sensor_segment) check_path(i, false);
     }
-    INFO(to_string(support) << ": " << technique << " technique samples, " << repeats << " repeat visits, " << round_the_torus
-                            << " of them round the torus");
-    CHECK(technique > 1000);
-    CHECK(repeats > 50);
-    CHECK(round_the_torus > 10);
+    for (const int light : {0, 1}) {
+      INFO(to_string(support) << (light ? ", light" : ", camera") << " paths: " << technique[light] << " technique samples, "
+                              << repeats[light] << " repeat visits, " << round_the_torus[light] << " of them round the torus");
+      CHECK(technique[light] > 500);
+      CHECK(repeats[light] > 10);
+      CHECK(round_the_torus[light] > 5);
+    }
+    // What the rule is for, checked apart from it: no cluster, and no disk of radius r around
+    // any pooled segment's end (what a density D(s) counts, canonical positions), holds two
+    // technique samples of one path.
+    std::size_t shared = 0;  // places that hold technique samples of two paths or more
+    for (std::uint32_t i = 0; i < pool.size(); ++i)
+      for (const bool x_end : {false, true}) {
+        const Vertex end{i, x_end};
+        if (point(end).kind != PointKind::surface) continue;
+        std::vector<std::size_t> paths_here;
+        for (const auto& [v, path] : held) {
+          const bool here = support == FilteringSupport::voxel ? same_place(end, v, false) : [&] {
+            const Vec3<double> d = scene.canonical_position(point(end)) - scene.canonical_position(point(v));
+            return glm::dot(d, d) < radius * radius;
+          }();
+          if (here) paths_here.push_back(path);
+        }
+        std::sort(paths_here.begin(), paths_here.end());
+        const bool twice = std::adjacent_find(paths_here.begin(), paths_here.end()) != paths_here.end();
+        if (twice) CHECK_FALSE(twice);
+        shared += paths_here.size() > 1;
+      }
+    CHECK(shared > 1000);
     // A next-event segment's density counts the camera technique points of its cluster (disk),
     // so it is drawn from those only: a camera vertex that is none draws at most its successor.
     o.next_event = true;

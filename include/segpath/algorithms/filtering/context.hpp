@@ -78,9 +78,10 @@ struct Context {
   /// (docs/filtering.md, "Known limits").
   std::optional<VoxelGrid<T>> visit_grid{};
   /// The same rule on the disk support (render_pass: the iteration's disk radius r): a draw is
-  /// a technique sample only where no earlier technique sample of its path lies within r
-  /// (canonical positions, as DiskJunctions measures), so no disk around a path's technique
-  /// sample holds a later one. 0: every visit counts.
+  /// a technique sample only where no earlier technique sample of its path lies within 2 r
+  /// (canonical positions, as DiskJunctions measures), so no disk of radius r, around whatever
+  /// segment end, holds two technique samples of one path, as no voxel does. 0: every visit
+  /// counts.
   T visit_radius = 0;
   /// Per pooled segment, sum_u N_u p_u(s) over the user's techniques (empty without any).
   std::vector<T> extra_density{};

@@ -66,8 +66,9 @@ struct PathVisits {
   void clear() noexcept { voxels.clear(), positions.clear(); }
 };
 
-/// Whether a draw at p is its path's first visit of p's voxel (of no disk around an earlier
-/// technique sample of the path), which `visits` then records; true where every visit counts.
+/// Whether a draw at p is its path's first visit of p's voxel (over disks: whether no earlier
+/// technique sample of the path lies within twice the disk radius, so that no disk holds two),
+/// which `visits` then records; true where every visit counts.
 /// Measured as the support measures an end (support.hpp): by the scene's canonical position, so
 /// that on a periodic domain a path that comes round to its voxel's image visits it again.
 template <LightSampledScene Scn>
@@ -86,11 +87,18 @@ template <LightSampledScene Scn>
     visits.voxels.push_back(k.key);
     return true;
   }
-  const T r2 = ctx.visit_radius * ctx.visit_radius;
+  const T r2 = T(4) * ctx.visit_radius * ctx.visit_radius;  // (2 r)^2
   for (const Vec3<T>& v : visits.positions)
     if (glm::dot(at - v, at - v) < r2) return false;
   visits.positions.push_back(at);
   return true;
+}
+
+/// Records p as visited by its path (first_visit_of without the answer): a point the path holds
+/// though it drew no technique sample there, such as its light point.
+template <LightSampledScene Scn>
+void mark_visited(const Context<Scn>& ctx, const SurfacePoint<typename Scn::Scalar>& p, PathVisits<typename Scn::Scalar>& visits) {
+  (void)first_visit_of(ctx, p, visits);
 }
 
 /// One camera path: the sensor segment, then approximate successors (N33) from each
@@ -239,7 +247,7 @@ void trace_light_path(const Context<Scn>& ctx, std::uint64_t index,
   visits.clear();
   // The light point y counts as visited: a later technique sample of the path near it exists
   // only if this segment was drawn, and would be counted in its D_l.
-  (void)first_visit_of(ctx, r.segment.y, visits);
+  mark_visited(ctx, r.segment.y, visits);
   for (std::size_t delta_bounces = 0;;) {
     const SurfacePoint<T>& x = r.segment.x;
     std::optional<BsdfSample<S>> prev;
