@@ -11,14 +11,17 @@
 // light technique samples starting at b give c_l Q(a | b), the light start N p_0(a).
 //
 //   g++ -std=c++20 -O2 -DCELLS=8 -Iinclude docs/experiments/few_light_paths.cpp -o few_light_paths
-//   ./few_light_paths N pools [max_length [uniform | stratified] [first]]
+//   ./few_light_paths N pools [max_length [uniform | stratified] [first] [camera] [trips]]
 //
 // "uniform": every light start density 1 / C. "stratified": uniform, and light path l starts at
 // cell l mod C (N / C per cell), so the light starts are not random and the light start's
 // density is exact. "first": a light path's predecessor draw is a technique sample only at the
 // path's first visit of a cell, and what it draws at a repeat visit joins no chain (segment
 // filtering's rule since session 47, filtering::Context::visit_grid; docs/figures.md, sessions 46
-// and 47).
+// and 47). "camera": the same for a camera path's successor draw (session 48). "trips": no chain
+// goes a round trip between a segment and the one that drew it (ConditionedInputs::backtrack,
+// as filtering::backtrack_partners pairs them; session 47). The light is no cell here, so the
+// light point's visit (session 48) has nothing to act on.
 //
 // Measured (400,000 pools, max length 6, 8 cells): E / exact 0.957 / 0.966 / 0.977 / 0.985 /
 // 0.991 / 0.997 at N = 1 / 2 / 4 / 8 / 16 / 64; at N = 4, max length 2 / 3 / 4: 1.001 / 0.996 /
@@ -31,6 +34,13 @@
 // propagate_conditioned cannot leave out: +0.7 % at 64 cells with N = 1, +4.4 % at 8 cells
 // (docs/figures.md, session 46; at 8 cells N = 1 gives 1.0997, and the rule alone overshoots
 // where paths revisit cells this often).
+// With all three rules ("first camera trips", session 49), max length 6: 64 cells, N = 1 / 4 /
+// 16 / 64: 0.99996 +- 0.00066 / 0.99970 +- 0.00048 / 0.99917 +- 0.00021 / 0.99993 +- 0.00027
+// (10 M, 5 M, 6 M and 1 M pools); 8 cells, N = 8: 1.00012 +- 0.00020, without "camera" 0.99412
+// +- 0.00020; 8 cells, N = 1: 1.07753 +- 0.00059 (session 46 put the overshoot of so small a
+// world on chains through one segment twice; not checked again); 16 cells, N = 16: 1.00039 +-
+// 0.00016; 256 cells, N = 16: 1.00039 +- 0.00060 (8 cells 2 M pools, 16 and 256 cells 3 M).
+// What is left are effects of both signs at the 0.1 % level, none of them falling as 1 / N.
 #include <segpath/propagation/path_conditioned.hpp>
 #include <segpath/core/rng.hpp>
 
@@ -112,21 +122,31 @@ struct Drawn {
   bool repeat_visit_born = false;  // drawn at its light path's repeat visit of a cell
 };
 
-double estimate(const World& w, int light_paths, int max_length, bool stratified, bool first_visits, Pcg32& rng) {
+double estimate(const World& w, int light_paths, int max_length, bool stratified, bool first_visits, bool camera_first_visits,
+                bool round_trips, Pcg32& rng) {
   using namespace segpath;
   std::vector<Drawn> pool;
+  std::vector<int> parent;  // the segment that drew each one (-1: a sensor segment or light start)
   for (int m = 0; m < pixels; ++m) {
     pool.push_back({-1 - m, draw(w.W[m], C, rng.uniform<double>()), false, false, false});
+    parent.push_back(-1);
+    std::vector<bool> visited(C, false);
     for (int depth = 1; pool.back().y != light && depth < max_length; ++depth) {
-      pool.back().camera_technique = true;  // the roulette's coin is part of the draw
+      // With camera_first_visits, a camera technique sample only at the path's first visit of a
+      // cell; what a repeat visit draws is in no chain, and the path goes on.
+      const bool repeat = camera_first_visits && visited[pool.back().y];
+      visited[pool.back().y] = true;
+      pool.back().camera_technique = !repeat;  // the roulette's coin is part of the draw
       if (!(rng.uniform<double>() < camera_continuation)) break;
       const int from = pool.back().y;
-      pool.push_back({from, draw(w.P[from], C + 1, rng.uniform<double>()), false, false, false});
+      parent.push_back(int(pool.size()) - 1);
+      pool.push_back({from, draw(w.P[from], C + 1, rng.uniform<double>()), false, false, false, repeat});
     }
   }
   for (int l = 0; l < light_paths; ++l) {
     const int first = stratified ? l % C : draw(w.start, C, rng.uniform<double>());
     pool.push_back({first, light, true, false, true});
+    parent.push_back(-1);
     std::vector<bool> visited(C, false);
     while (true) {
       // With first_visits, a technique sample only at the path's first visit of a cell
@@ -137,6 +157,7 @@ double estimate(const World& w, int light_paths, int max_length, bool stratified
       generator.light_technique = !repeat;
       if (!(rng.uniform<double>() < light_continuation)) break;
       const int y = generator.x;
+      parent.push_back(int(pool.size()) - 1);
       pool.push_back({draw(w.Q[y], C, rng.uniform<double>()), y, true, false, true, repeat});
     }
   }
@@ -182,8 +203,16 @@ double estimate(const World& w, int light_paths, int max_length, bool stratified
     const Drawn &a = pool[s], &b = pool[sp];
     return a.x >= 0 && b.x >= 0 && a.y == b.x && a.y != light ? light_continuation * w.Q[a.y][a.x] : 0.0;
   };
+  // Round trips out (ConditionedInputs::backtrack): a camera successor's partner is its parent,
+  // a light segment's the predecessor it drew (filtering::backtrack_partners).
+  std::vector<std::uint32_t> backtrack(round_trips ? n : 0, no_cluster);
+  for (std::size_t i = 0; round_trips && i < n; ++i)
+    if (parent[i] >= 0) {
+      if (pool[i].light_born) backtrack[std::size_t(parent[i])] = std::uint32_t(i);
+      else backtrack[i] = std::uint32_t(parent[i]);
+    }
   const ConditionedInputs<double, decltype(link), decltype(light_pair)> inputs{
-      emitted, geometry, density, light_density, terms, light_density, flags, link, light_pair};
+      emitted, geometry, density, light_density, terms, light_density, flags, link, light_pair, {}, {}, {}, backtrack};
   std::vector<double> weighted;
   propagate_conditioned(clustering, inputs, max_length - 1, weighted);
   double sum = 0;
@@ -196,27 +225,29 @@ double estimate(const World& w, int light_paths, int max_length, bool stratified
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: %s light_paths pools [max_length [uniform | stratified] [first]]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s light_paths pools [max_length [uniform | stratified] [first] [camera] [trips]]\n", argv[0]);
     return 2;
   }
   const int light_paths = std::atoi(argv[1]);
   const long pools = std::atol(argv[2]);
   const int max_length = argc > 3 ? std::atoi(argv[3]) : 6;
-  bool stratified = false, uniform = false, first_visits = false;
+  bool stratified = false, uniform = false, first_visits = false, camera_first_visits = false, round_trips = false;
   for (int i = 4; i < argc; ++i) {
     const std::string_view word = argv[i];
     stratified |= word == "stratified", uniform |= word == "uniform", first_visits |= word == "first";
+    camera_first_visits |= word == "camera", round_trips |= word == "trips";
   }
   const World w = make_world(stratified || uniform);
   const double reference = exact(w, max_length);
   Pcg32 rng(777, std::uint64_t(light_paths));
   double sum = 0, squares = 0;
   for (long i = 0; i < pools; ++i) {
-    const double e = estimate(w, light_paths, max_length, stratified, first_visits, rng);
+    const double e = estimate(w, light_paths, max_length, stratified, first_visits, camera_first_visits, round_trips, rng);
     sum += e, squares += e * e;
   }
   const double mean = sum / double(pools), error = std::sqrt((squares / double(pools) - mean * mean) / double(pools));
-  std::printf("%d cells, %d light paths%s%s, max length %d: E / exact %.5f +- %.5f\n", C, light_paths,
-              stratified ? " (stratified starts)" : "", first_visits ? " (first visits)" : "", max_length, mean / reference,
-              error / reference);
+  std::printf("%d cells, %d light paths%s%s%s%s, max length %d: E / exact %.5f +- %.5f\n", C, light_paths,
+              stratified ? " (stratified starts)" : "", first_visits ? " (first visits)" : "",
+              camera_first_visits ? " (camera first visits)" : "", round_trips ? " (no round trips)" : "", max_length,
+              mean / reference, error / reference);
 }
