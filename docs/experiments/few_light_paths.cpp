@@ -119,7 +119,7 @@ double exact(const World& w, int max_length) {
 struct Drawn {
   int x, y;  // x < 0: pixel -1 - x's sensor
   bool light_born, camera_technique, light_technique;
-  bool repeat_visit_born = false;  // drawn at its light path's repeat visit of a cell
+  bool repeat_visit_born = false;  // drawn at its path's repeat visit of a cell
 };
 
 double estimate(const World& w, int light_paths, int max_length, bool stratified, bool first_visits, bool camera_first_visits,

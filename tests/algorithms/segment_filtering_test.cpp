@@ -153,11 +153,11 @@ TEST_CASE("segment filtering: light paths have no depth limit, every light-born 
 // The weighting counts at most one technique sample of a path per cluster (disk), fixed before
 // that sample draws (docs/filtering.md, "A light path's repeat visits"): a path's later visit of
 // a cluster exists only if what it drew at the first does. So a path draws a technique sample
-// only at its first visit of a voxel (Context::visit_grid), or where no disk around an earlier
-// technique sample of it holds the point (Context::visit_radius), both measured at the canonical
-// position as the support measures ends, and what it draws at a repeat visit joins no chain
-// (G = 0). On the periodic slab with voxels of 1/4 of the period (disks of the same area), paths
-// come back often, also round the torus.
+// only at its first visit of a voxel (Context::visit_grid), or over disks of radius r
+// (Context::visit_radius) where no earlier technique sample of it lies within 2 r, both measured
+// at the canonical position as the support measures ends, and what it draws at a repeat visit
+// joins no chain (G = 0). On the periodic slab with voxels of 1/4 of the period (disks of the
+// same area), paths come back often, also round the torus.
 TEST_CASE("segment filtering: a path draws technique samples only at its first visit of a voxel or disk, also round a torus",
           "[algorithms]") {
   using Filter = SegmentFiltering<PhotographedSlab<double>>;
