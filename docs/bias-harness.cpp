@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
   const F f(o);
   std::vector<double> sum(ml, 0), sum2(ml, 0);
   for (int it = 0; it < iters; ++it) {
-    auto ctx = f.context(scene, std::uint64_t(it));
+    auto ctx = f.context(scene, std::uint64_t(it), 0, T(cell));
     f.build_pool(ctx);
     const auto& pool = ctx.pool;
     std::vector<Color> radiance;
@@ -47,10 +47,10 @@ int main(int argc, char** argv) {
     DiskJunctions<T> junctions;
     filtering::LightSide<T> side;
     if (!disk) {
-      filtering::cluster(ctx, filtering::grid(o, T(cell), ctx.stream), clustering, SerialFor{});
+      filtering::cluster(ctx, clustering, SerialFor{});
       filtering::compute_densities(ctx, clustering, SerialFor{}, paper ? nullptr : &side);
     } else {
-      filtering::join(ctx, filtering::disk_radius(T(cell)), junctions, SerialFor{});
+      filtering::join(ctx, junctions, SerialFor{});
       filtering::compute_densities(ctx, junctions, SerialFor{});
       if (!paper) filtering::light_side(ctx, junctions, side, SerialFor{});
     }

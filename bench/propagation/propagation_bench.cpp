@@ -73,9 +73,9 @@ struct Prepared {
   const FilteringStats& stats;
 
   Prepared(std::uint32_t size, T cell, bool factorise)
-      : scene(size), filter(options(factorise)), context(filter.context(scene, 0)), pool(context.pool), stats(context.stats) {
+      : scene(size), filter(options(factorise)), context(filter.context(scene, 0, 0, cell)), pool(context.pool), stats(context.stats) {
     filter.build_pool(context);
-    filtering::cluster(context, filtering::grid(filter.options(), cell, context.stream), clustering, SerialFor{});
+    filtering::cluster(context, clustering, SerialFor{});
     filtering::compute_densities(context, clustering, SerialFor{});
     weighted_geometry.resize(pool.size());
     for (std::size_t i = 0; i < pool.size(); ++i)

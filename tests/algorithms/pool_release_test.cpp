@@ -29,12 +29,11 @@ template <class Scn>
 std::size_t check_release(const Scn& scene, const FilteringOptions<double>& o, bool slot_order, const std::string& what) {
   INFO(what << (slot_order ? ", slot order" : ", drawn order"));
   const SegmentFiltering<Scn> filter(o);
-  auto kept = filter.context(scene, 1);
+  auto kept = filter.context(scene, 1, 0, filter.initial_cell_size(scene));
   filter.build_pool(kept);
-  const auto grid = filtering::grid(o, filter.initial_cell_size(scene), kept.stream);
   Clustering<double> clustering;
-  if (slot_order) filtering::cluster_in_slot_order(kept, grid, clustering, SerialFor{});
-  else filtering::cluster(kept, grid, clustering, SerialFor{});
+  if (slot_order) filtering::cluster_in_slot_order(kept, clustering, SerialFor{});
+  else filtering::cluster(kept, clustering, SerialFor{});
   const bool conditioned = path_conditioned(o);
   filtering::LightSide<double> side;
   filtering::compute_densities(kept, clustering, SerialFor{}, conditioned ? &side : nullptr);

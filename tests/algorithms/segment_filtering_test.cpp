@@ -176,7 +176,7 @@ TEST_CASE("segment filtering: a path draws technique samples only at its first v
     Clustering<double> clustering;
     if (support == FilteringSupport::voxel) {
       REQUIRE(ctx.visit_grid);
-      filtering::cluster(ctx, *ctx.visit_grid, clustering, SerialFor{});
+      filtering::cluster(ctx, clustering, SerialFor{});
     }
     const double radius = 0.5 / std::sqrt(pi<double>);  // pi r^2 = h^2
     // Whether vertex a (a segment and its end) is where vertex b is: the same cluster, or within
@@ -553,11 +553,11 @@ void check_voxel_denominators(const Scn& scene, bool bridges, bool next_event, d
     o.pixel_passes = passes;
     o.camera_continuation = camera_continuation;
     const Filter filter(o);
-    auto ctx = filter.context(scene, 1, pass);
+    auto ctx = filter.context(scene, 1, pass, cell);
     filter.build_pool(ctx);
     const auto& pool = ctx.pool;
     Clustering<double> clustering;
-    filtering::cluster(ctx, filtering::grid(o, cell, ctx.stream), clustering, SerialFor{});
+    filtering::cluster(ctx, clustering, SerialFor{});
     filtering::LightSide<double> side;  // the path-conditioned weighting's light side, computed alongside
     filtering::compute_densities(ctx, clustering, SerialFor{}, &side);
     const auto kernel = testing::voxel_kernel_oracle(pool, filtering::grid(o, cell, ctx.stream),
@@ -587,11 +587,12 @@ void check_disk_denominators(const Scn& scene, bool bridges, bool next_event, do
   o.next_event = next_event;
   o.camera_continuation = camera_continuation;
   const Filter filter(o);
-  auto ctx = filter.context(scene, 1);
+  auto ctx = filter.context(scene, 1, 0, r * std::sqrt(pi<double>));  // pi r^2 = cell^2
   filter.build_pool(ctx);
   const auto& pool = ctx.pool;
+  REQUIRE(ctx.visit_radius == Approx(r));
   DiskJunctions<double> junctions;
-  filtering::join(ctx, r, junctions, SerialFor{});
+  filtering::join(ctx, junctions, SerialFor{});
   filtering::compute_densities(ctx, junctions, SerialFor{});
   const auto kernel = disk_kernel(scene, pool, r);
   INFO("bridges " << bridges << ", next-event " << next_event);
@@ -640,6 +641,55 @@ TEST_CASE("every MMIS denominator includes every technique sample of its cluster
   check_voxel_denominators(PhotographedSphere(9), true, true, 0.4, 2, 1);
   // Camera paths that continue with probability 0.6: their successors' densities carry it.
   check_voxel_denominators(PhotographedSphere(8), false, true, 0.4, 1, 0, 0.6);
+}
+
+// The support stage builds on the context's own support, the one the paths keyed their first
+// visits on: a context at a voxel size of its own carries that size to both, and a support the
+// context does not have is refused rather than built at some other size.
+TEST_CASE("segment filtering: the support stage builds on the context's grid or radius, and refuses what it lacks",
+          "[algorithms]") {
+  const PhotographedSphere scene(8);
+  for (const FilteringSupport support : {FilteringSupport::voxel, FilteringSupport::disk}) {
+    FilteringOptions<double> o;
+    o.max_length = 4;
+    o.support = support;
+    const SegmentFiltering<PhotographedSphere> filter(o);
+    INFO(to_string(support));
+    CHECK_THROWS_AS(filter.context(scene, 0, 0, 0.0), std::invalid_argument);
+    CHECK_THROWS_AS(filter.context(scene, 0, 0, -0.3), std::invalid_argument);
+    CHECK_THROWS_AS(filter.context(scene, 0, 0, std::numeric_limits<double>::infinity()), std::invalid_argument);
+    auto ctx = filter.context(scene, 2, 0, 0.3);
+    filter.build_pool(ctx);
+    REQUIRE(ctx.pool.size() > 100);
+    Clustering<double> clustering;
+    DiskJunctions<double> junctions;
+    if (support == FilteringSupport::voxel) {
+      REQUIRE(ctx.visit_grid);
+      CHECK(ctx.visit_grid->cell_size() == 0.3);
+      CHECK(ctx.visit_radius == 0);
+      CHECK_THROWS_AS(filtering::join(ctx, junctions, SerialFor{}), std::invalid_argument);
+      filtering::cluster(ctx, clustering, SerialFor{});
+      // Every end is in the cluster of the context's grid voxel it lies in.
+      const auto& grid = *ctx.visit_grid;
+      std::size_t checked = 0;
+      for (std::uint32_t a = 0; a < ctx.pool.size(); ++a)
+        for (std::uint32_t b = a + 1; b < std::min<std::uint32_t>(a + 40, std::uint32_t(ctx.pool.size())); ++b) {
+          const auto& ya = ctx.pool.segments[a].y;
+          const auto& yb = ctx.pool.segments[b].y;
+          if (ya.kind != PointKind::surface || yb.kind != PointKind::surface) continue;
+          if (clustering.cluster_of_y(a) == no_cluster || clustering.cluster_of_y(b) == no_cluster) continue;
+          CHECK((clustering.cluster_of_y(a) == clustering.cluster_of_y(b)) == (grid.key(ya).key == grid.key(yb).key));
+          ++checked;
+        }
+      CHECK(checked > 1000);
+    } else {
+      CHECK(!ctx.visit_grid);
+      CHECK(ctx.visit_radius == Approx(0.3 / std::sqrt(pi<double>)));
+      CHECK_THROWS_AS(filtering::cluster(ctx, clustering, SerialFor{}), std::invalid_argument);
+      filtering::join(ctx, junctions, SerialFor{});
+      CHECK(junctions.radius() == ctx.visit_radius);
+    }
+  }
 }
 
 TEST_CASE("segment filtering: the pixel passes of an iteration draw every pixel once, from streams of their own",
@@ -921,7 +971,9 @@ TEST_CASE("a user's own technique joins the technique set: its density enters ev
       o.support = support;
       o.pixel_passes = passes;
       const SegmentFiltering<Scn, Cosine> filter(o, FilteringTechnique<Cosine>{Cosine{}, per_pixel});
-      auto ctx = filter.context(scene, 1, pass);
+      // Voxels of 0.4, or disks of radius r = 0.25 (pi r^2 = cell^2).
+      const double cell = 0.4, r = 0.25;
+      auto ctx = filter.context(scene, 1, pass, support == FilteringSupport::voxel ? cell : r * std::sqrt(pi<double>));
       filter.build_pool(ctx);
       const auto& pool = ctx.pool;
       const auto extras = std::count_if(pool.flags.begin(), pool.flags.end(), [](auto f) { return (f & filtering::extra_technique) != 0; });
@@ -936,17 +988,17 @@ TEST_CASE("a user's own technique joins the technique set: its density enters ev
       std::pair<std::size_t, std::size_t> checked;
       if (support == FilteringSupport::voxel) {
         Clustering<double> clustering;
-        filtering::cluster(ctx, filtering::grid(o, 0.4, ctx.stream), clustering, SerialFor{});
+        filtering::cluster(ctx, clustering, SerialFor{});
         filtering::LightSide<double> side;
         filtering::compute_densities(ctx, clustering, SerialFor{}, &side);
-        const auto kernel = testing::voxel_kernel_oracle(pool, filtering::grid(o, 0.4, ctx.stream),
+        const auto kernel = testing::voxel_kernel_oracle(pool, filtering::grid(o, cell, ctx.stream),
                                                          [&](const SurfacePoint<double>& p) { return canonical(scene, p); });
         checked = testing::check_denominators(filter, scene, pool, kernel, extra_of(pool, draws), pass);
         testing::check_light_side(filter, scene, pool, side, kernel, pass);
       } else {
-        const double r = 0.25;
+        REQUIRE(ctx.visit_radius == Approx(r));
         DiskJunctions<double> junctions;
-        filtering::join(ctx, r, junctions, SerialFor{});
+        filtering::join(ctx, junctions, SerialFor{});
         filtering::compute_densities(ctx, junctions, SerialFor{});
         const auto kernel = disk_kernel(scene, pool, r);
         checked = testing::check_denominators(filter, scene, pool, kernel, extra_of(pool, draws), pass);

@@ -59,11 +59,10 @@ Seen check_renaming(const Scn& scene, const FilteringOptions<double>& o, const s
                     const FilteringTechnique<Extra>&... extra) {
   INFO(what);
   const SegmentFiltering<Scn, Extra...> filter(o, extra...);
-  auto before = filter.context(scene, 2);
+  auto before = filter.context(scene, 2, 0, filter.initial_cell_size(scene));
   filter.build_pool(before);
-  const auto grid = filtering::grid(o, filter.initial_cell_size(scene), before.stream);
   Clustering<double> clustering_before;
-  filtering::cluster(before, grid, clustering_before, SerialFor{});
+  filtering::cluster(before, clustering_before, SerialFor{});
   auto after = before;
   Clustering<double> clustering_after = clustering_before, of_nothing;
   if (before.pool.size() > 0) CHECK_THROWS_AS(filtering::order_by_slot(after, of_nothing, SerialFor{}), std::invalid_argument);
@@ -160,10 +159,10 @@ TEST_CASE("BDPF's iteration, which renumbers its pool, gives the image of the st
     DropCounters drops;
     filter.render_iteration_at(scene, iteration, cell, rendered, drops, testing::TwoThreadFor{});
     // The stages in the drawn order.
-    auto ctx = filter.context(scene, iteration);
+    auto ctx = filter.context(scene, iteration, 0, cell);
     filter.build_pool(ctx);
     Clustering<double> clustering;
-    filtering::cluster(ctx, filtering::grid(o, cell, ctx.stream), clustering, SerialFor{});
+    filtering::cluster(ctx, clustering, SerialFor{});
     filtering::LightSide<double> side;
     filtering::compute_densities(ctx, clustering, SerialFor{}, &side);
     std::vector<double> radiance, geometry;

@@ -327,10 +327,9 @@ struct ClusteredPool {
   segpath::Clustering<float> clustering;
 };
 ClusteredPool clustered_pool(const Filter& filter, const renderer::ThreadCountingScene& scene, float cell) {
-  ClusteredPool p{filter.context(scene, 0), {}};
+  ClusteredPool p{filter.context(scene, 0, 0, cell), {}};
   filter.build_pool(p.context);
-  segpath::filtering::cluster(p.context, segpath::filtering::grid(filter.options(), cell, p.context.stream), p.clustering,
-                              segpath::SerialFor{});
+  segpath::filtering::cluster(p.context, p.clustering, segpath::SerialFor{});
   return p;
 }
 

@@ -31,6 +31,7 @@
 #include "segpath/core/parallel.hpp"
 
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <stdexcept>
@@ -83,14 +84,18 @@ class SegmentFiltering {
   }
 
   /// A fresh context for `iteration` (0-based) and its pass `pass` of pixel_passes, for running
-  /// the stages one by one; on the voxel support its visit grid (Context::visit_grid) is the
-  /// iteration's grid at voxel size `cell` (the schedule's by default), which the clustering
-  /// stage must then use too.
+  /// the stages one by one. Its support is the iteration's at voxel size `cell` (the
+  /// schedule's by default): on voxels the grid (Context::visit_grid), on disks the radius with a
+  /// voxel face's area (Context::visit_radius). The paths key their first visits on it and the
+  /// support stage (filtering::cluster, filtering::join) builds on it, so the two agree.
   [[nodiscard]] Context context(const Scn& scene, std::uint64_t iteration, std::uint32_t pass = 0,
                                 std::optional<T> cell = std::nullopt) const {
     if (pass >= options_.pixel_passes)
       throw std::invalid_argument("segpath::SegmentFiltering: pass " + std::to_string(pass) + " of " +
                                   std::to_string(options_.pixel_passes) + " pixel passes");
+    if (cell && !(*cell > T(0) && std::isfinite(*cell)))
+      throw std::invalid_argument("segpath::SegmentFiltering: a context's voxel size must be finite and > 0, got " +
+                                  std::to_string(double(*cell)));
     Context ctx{scene, options_, iteration + 1};
     ctx.pass = pass;
     ctx.passes = options_.pixel_passes;
@@ -179,11 +184,10 @@ class SegmentFiltering {
     const bool conditioned = path_conditioned(options_);
     if (options_.support == FilteringSupport::voxel) {
       Clustering<T> clustering;
-      const VoxelGrid<T>& grid = *ctx.visit_grid;  // the grid the paths' first visits were keyed on
       // The path-conditioned propagation reads the pool by slot the most: there the renumbering
       // pays for itself; with the paper's weighting it costs what it saves (docs/figures.md).
-      if (conditioned) filtering::cluster_in_slot_order(ctx, grid, clustering, parallel_for);
-      else filtering::cluster(ctx, grid, clustering, parallel_for);
+      if (conditioned) filtering::cluster_in_slot_order(ctx, clustering, parallel_for);
+      else filtering::cluster(ctx, clustering, parallel_for);
       stats.clusters = clustering.clusters().size();
       lap(stats.support_seconds);
       filtering::compute_densities(ctx, clustering, parallel_for, conditioned ? &side : nullptr);
@@ -208,7 +212,7 @@ class SegmentFiltering {
       }
     } else {
       DiskJunctions<T> junctions;
-      filtering::join(ctx, ctx.visit_radius, junctions, parallel_for);  // the radius of the paths' first visits
+      filtering::join(ctx, junctions, parallel_for);
       stats.junctions = junctions.junction_count();
       lap(stats.support_seconds);
       filtering::compute_densities(ctx, junctions, parallel_for, conditioned ? &side : nullptr);

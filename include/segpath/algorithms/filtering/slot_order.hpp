@@ -95,15 +95,15 @@ void order_by_slot(Context<Scn>& ctx, Clustering<typename Scn::Scalar>& clusteri
 template <Real T>
 inline constexpr std::size_t slot_order_bytes_per_segment = sizeof(SurfacePoint<T>);
 
-/// The pool's clusters on `grid` (cluster), then the pool in their slot order (order_by_slot).
+/// The pool's clusters on the context's grid (cluster), then the pool in their slot order
+/// (order_by_slot).
 template <LightSampledScene Scn, ParallelFor P>
-void cluster_in_slot_order(Context<Scn>& ctx, const VoxelGrid<typename Scn::Scalar>& grid,
-                           Clustering<typename Scn::Scalar>& clustering, const P& parallel_for) {
+void cluster_in_slot_order(Context<Scn>& ctx, Clustering<typename Scn::Scalar>& clustering, const P& parallel_for) {
   // Taken before the clustering's temporaries, this buffer reuses the heap the path records
   // left. Taken after, a full segment copy raised the peak by up to 180 MB at 512 x 512; this
   // half buffer made no clear difference either way (docs/figures.md, sessions 34 and 39).
   std::vector<SurfacePoint<typename Scn::Scalar>> x_end_storage(ctx.pool.size());
-  cluster(ctx, grid, clustering, parallel_for);
+  cluster(ctx, clustering, parallel_for);
   order_by_slot(ctx, clustering, parallel_for, std::move(x_end_storage));
 }
 

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <cstdint>
 #include <span>
+#include <stdexcept>
 
 namespace segpath::filtering {
 
@@ -30,19 +31,40 @@ template <LightSampledScene Scn>
   };
 }
 
-/// Clusters a pool's endpoints on `grid` (by canonical position where the scene has one).
-template <LightSampledScene Scn, ParallelFor P>
-void cluster(const Context<Scn>& ctx, const VoxelGrid<typename Scn::Scalar>& grid, Clustering<typename Scn::Scalar>& clustering,
-             const P& parallel_for) {
-  clustering.build(grid, ctx.pool.segments, canonical_map(ctx.scene), parallel_for);
+/// The voxel grid the context's paths keyed their first visits on (Context::visit_grid): the
+/// clustering must use it, or a voxel could hold two technique samples of one path.
+template <LightSampledScene Scn>
+[[nodiscard]] const VoxelGrid<typename Scn::Scalar>& support_grid(const Context<Scn>& ctx) {
+  if (!ctx.visit_grid)
+    throw std::invalid_argument("segpath::filtering: the context has no voxel grid (make it with SegmentFiltering::context "
+                                "on the voxel support)");
+  return *ctx.visit_grid;
 }
 
-/// The disk support's junctions of a pool (by canonical position where the scene has one).
+/// The disk radius the context's paths kept their technique samples apart by
+/// (Context::visit_radius): the junctions must use it.
+template <LightSampledScene Scn>
+[[nodiscard]] typename Scn::Scalar support_radius(const Context<Scn>& ctx) {
+  if (!(ctx.visit_radius > 0))
+    throw std::invalid_argument("segpath::filtering: the context has no disk radius (make it with SegmentFiltering::context "
+                                "on the disk support)");
+  return ctx.visit_radius;
+}
+
+/// Clusters a pool's endpoints on the context's grid (by canonical position where the scene
+/// has one).
 template <LightSampledScene Scn, ParallelFor P>
-void join(const Context<Scn>& ctx, typename Scn::Scalar radius, DiskJunctions<typename Scn::Scalar>& junctions,
-          const P& parallel_for) {
+void cluster(const Context<Scn>& ctx, Clustering<typename Scn::Scalar>& clustering, const P& parallel_for) {
+  clustering.build(support_grid(ctx), ctx.pool.segments, canonical_map(ctx.scene), parallel_for);
+}
+
+/// The disk support's junctions of a pool at the context's radius (by canonical position where
+/// the scene has one).
+template <LightSampledScene Scn, ParallelFor P>
+void join(const Context<Scn>& ctx, DiskJunctions<typename Scn::Scalar>& junctions, const P& parallel_for) {
   using T = typename Scn::Scalar;
-  junctions.build(radius, std::span<const Segment<T>>(ctx.pool.segments), canonical_map(ctx.scene), T(0.5), parallel_for);
+  junctions.build(support_radius(ctx), std::span<const Segment<T>>(ctx.pool.segments), canonical_map(ctx.scene), T(0.5),
+                  parallel_for);
 }
 
 /// The voxel size of iteration 1 when the options leave it at 0, in average pixel footprints
