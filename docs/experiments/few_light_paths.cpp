@@ -10,8 +10,8 @@
 // builds them in a factorised cluster: camera technique samples ending at a give c_c P(b | a),
 // light technique samples starting at b give c_l Q(a | b), the light start N p_0(a).
 //
-//   g++ -std=c++20 -O2 -DCELLS=8 -Iinclude docs/experiments/few_light_paths.cpp -o few_light_paths
-//   ./few_light_paths N pools [max_length [uniform | stratified] [first] [camera] [trips]]
+//   g++ -std=c++20 -O2 -DCELLS=8 [-DPIXELS=4] -Iinclude docs/experiments/few_light_paths.cpp -o few_light_paths
+//   ./few_light_paths N pools [max_length [uniform | stratified] [first] [camera] [trips] [poisson]]
 //
 // "uniform": every light start density 1 / C. "stratified": uniform, and light path l starts at
 // cell l mod C (N / C per cell), so the light starts are not random and the light start's
@@ -20,8 +20,9 @@
 // filtering's rule since session 47, filtering::Context::visit_grid; docs/figures.md, sessions 46
 // and 47). "camera": the same for a camera path's successor draw (session 48). "trips": no chain
 // goes a round trip between a segment and the one that drew it (ConditionedInputs::backtrack,
-// as filtering::backtrack_partners pairs them; session 47). The light is no cell here, so the
-// light point's visit (session 48) has nothing to act on.
+// as filtering::backtrack_partners pairs them; session 47). "poisson": a Poisson(N) number of
+// light paths per pool, the densities still at N (FilteringOptions::poisson_light_paths, session
+// 50). The light is no cell here, so the light point's visit (session 48) has nothing to act on.
 //
 // Measured (400,000 pools, max length 6, 8 cells): E / exact 0.957 / 0.966 / 0.977 / 0.985 /
 // 0.991 / 0.997 at N = 1 / 2 / 4 / 8 / 16 / 64; at N = 4, max length 2 / 3 / 4: 1.001 / 0.996 /
@@ -41,6 +42,15 @@
 // world on chains through one segment twice; not checked again); 16 cells, N = 16: 1.00039 +-
 // 0.00016; 256 cells, N = 16: 1.00039 +- 0.00060 (8 cells 2 M pools, 16 and 256 cells 3 M).
 // What is left are effects of both signs at the 0.1 % level, none of them falling as 1 / N.
+// The light paths' count (session 50; "first camera trips", 8 cells, 16 pixels, N = 1, 200,000
+// to 400,000 pools): exactly one light path gives 1.02134 +- 0.00115 / 1.04731 +- 0.00078 /
+// 1.09488 +- 0.00123 at max length 3 / 4 / 6, a Poisson count 1.00091 +- 0.00159 / 1.00363 +-
+// 0.00107 / 1.00752 +- 0.00153; without the first-visit rules, max length 3: fixed 1.00156 +-
+// 0.00114, Poisson 0.98855 +- 0.00157 (the rule and the Poisson count belong together). So the
+// overshoot of a world with one light path is mostly its fixed count, not chains through one
+// segment twice. At 64 cells, 4 pixels, N = 16, max length 6 the deficit stays with a Poisson
+// count: 0.99915 +- 0.00041 (2 M pools; max length 3 / 4 / 5: 0.99996 / 0.99991 / 0.99961, +-
+// 0.0004 each, 3 M pools).
 #include <segpath/propagation/path_conditioned.hpp>
 #include <segpath/core/rng.hpp>
 
@@ -59,7 +69,10 @@ namespace {
 using segpath::Pcg32;
 constexpr int C = CELLS;  // surface cells 0..C-1
 constexpr int light = C;  // the light's index as a segment end
-constexpr int pixels = 4;
+#ifndef PIXELS
+#define PIXELS 4
+#endif
+constexpr int pixels = PIXELS;  // one camera path each
 constexpr double camera_continuation = 0.7, light_continuation = 0.8;
 
 struct World {
@@ -122,8 +135,17 @@ struct Drawn {
   bool repeat_visit_born = false;  // drawn at its path's repeat visit of a cell
 };
 
+/// A Poisson(mean) count (Knuth's product of uniforms; the experiment's means are small).
+int poisson(double mean, Pcg32& rng) {
+  const double limit = std::exp(-mean);
+  double product = rng.uniform<double>();
+  int k = 0;
+  while (product > limit) product *= rng.uniform<double>(), ++k;
+  return k;
+}
+
 double estimate(const World& w, int light_paths, int max_length, bool stratified, bool first_visits, bool camera_first_visits,
-                bool round_trips, Pcg32& rng) {
+                bool round_trips, bool poisson_count, Pcg32& rng) {
   using namespace segpath;
   std::vector<Drawn> pool;
   std::vector<int> parent;  // the segment that drew each one (-1: a sensor segment or light start)
@@ -143,7 +165,9 @@ double estimate(const World& w, int light_paths, int max_length, bool stratified
       pool.push_back({from, draw(w.P[from], C + 1, rng.uniform<double>()), false, false, false, repeat});
     }
   }
-  for (int l = 0; l < light_paths; ++l) {
+  // "poisson": a Poisson(N) number of light paths, the densities still at N.
+  const int drawn = poisson_count ? poisson(light_paths, rng) : light_paths;
+  for (int l = 0; l < drawn; ++l) {
     const int first = stratified ? l % C : draw(w.start, C, rng.uniform<double>());
     pool.push_back({first, light, true, false, true});
     parent.push_back(-1);
@@ -225,28 +249,31 @@ double estimate(const World& w, int light_paths, int max_length, bool stratified
 
 int main(int argc, char** argv) {
   if (argc < 3) {
-    std::fprintf(stderr, "usage: %s light_paths pools [max_length [uniform | stratified] [first] [camera] [trips]]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s light_paths pools [max_length [uniform | stratified] [first] [camera] [trips] [poisson]]\n", argv[0]);
     return 2;
   }
   const int light_paths = std::atoi(argv[1]);
   const long pools = std::atol(argv[2]);
   const int max_length = argc > 3 ? std::atoi(argv[3]) : 6;
-  bool stratified = false, uniform = false, first_visits = false, camera_first_visits = false, round_trips = false;
+  bool stratified = false, uniform = false, first_visits = false, camera_first_visits = false, round_trips = false,
+       poisson_count = false;
   for (int i = 4; i < argc; ++i) {
     const std::string_view word = argv[i];
     stratified |= word == "stratified", uniform |= word == "uniform", first_visits |= word == "first";
-    camera_first_visits |= word == "camera", round_trips |= word == "trips";
+    camera_first_visits |= word == "camera", round_trips |= word == "trips", poisson_count |= word == "poisson";
   }
   const World w = make_world(stratified || uniform);
   const double reference = exact(w, max_length);
   Pcg32 rng(777, std::uint64_t(light_paths));
   double sum = 0, squares = 0;
   for (long i = 0; i < pools; ++i) {
-    const double e = estimate(w, light_paths, max_length, stratified, first_visits, camera_first_visits, round_trips, rng);
+    const double e =
+        estimate(w, light_paths, max_length, stratified, first_visits, camera_first_visits, round_trips, poisson_count, rng);
     sum += e, squares += e * e;
   }
   const double mean = sum / double(pools), error = std::sqrt((squares / double(pools) - mean * mean) / double(pools));
-  std::printf("%d cells, %d light paths%s%s%s%s, max length %d: E / exact %.5f +- %.5f\n", C, light_paths,
+  std::printf("%d cells, %d pixels, %d light paths%s%s%s%s%s, max length %d: E / exact %.5f +- %.5f\n", C, pixels, light_paths,
+              poisson_count ? " (Poisson count)" : "",
               stratified ? " (stratified starts)" : "", first_visits ? " (first visits)" : "",
               camera_first_visits ? " (camera first visits)" : "", round_trips ? " (no round trips)" : "", max_length,
               mean / reference, error / reference);

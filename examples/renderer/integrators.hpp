@@ -442,11 +442,12 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
   }
   static void print(std::uint64_t iteration, const segpath::FilteringStats& f) {
     std::fprintf(stderr,
-                 "iteration %llu: %llu segments (camera %llu of which %llu at a repeat visit, light %llu of which %llu at a repeat visit, bridge %llu, next-event %llu), %llu clusters, "
+                 "iteration %llu: %llu light paths, %llu segments (camera %llu of which %llu at a repeat visit, light %llu of which %llu at a repeat visit, bridge %llu, next-event %llu), %llu clusters, "
                  "%llu factorised, %llu pair evaluations, cell %.4g, %zu B/segment besides the cache, "
                  "cache %.1f MiB (%zu B/segment); seconds: paths %.3f, support %.3f, densities %.3f, "
                  "propagation %.3f, gather %.3f%s\n",
-                 static_cast<unsigned long long>(iteration + 1), static_cast<unsigned long long>(f.segments),
+                 static_cast<unsigned long long>(iteration + 1), static_cast<unsigned long long>(f.light_paths),
+                 static_cast<unsigned long long>(f.segments),
                  static_cast<unsigned long long>(f.camera_segments), static_cast<unsigned long long>(f.camera_repeat_visit_segments),
                  static_cast<unsigned long long>(f.light_segments),
                  static_cast<unsigned long long>(f.repeat_visit_segments), static_cast<unsigned long long>(f.bridge_segments), static_cast<unsigned long long>(f.next_event_segments),

@@ -6,6 +6,8 @@
 #include "segpath/algorithms/filtering/pool.hpp"
 #include "segpath/algorithms/filtering/technique_set.hpp"
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/poisson.hpp"
+#include "segpath/core/rng.hpp"
 #include "segpath/kernels/voxel.hpp"
 
 #include <algorithm>
@@ -102,6 +104,15 @@ struct Context {
   /// N_L: light paths of this pass, its share of the iteration's beta x #pixels (pass_share).
   [[nodiscard]] std::uint64_t light_paths() const noexcept {
     return pass_share(light_path_count(scene, techniques), pass, passes);
+  }
+  /// The light paths this pass draws: with FilteringOptions::poisson_light_paths a Poisson
+  /// count of mean light_paths() (from a stream of its own for the iteration and pass), else
+  /// light_paths() itself. The densities count light_paths() either way.
+  [[nodiscard]] std::uint64_t drawn_light_paths() const {
+    const std::uint64_t mean = light_paths();
+    if (!options.poisson_light_paths || mean == 0) return mean;
+    Pcg32 rng = Pcg32::for_sample(options.seed ^ 0x706f6973736f6eULL /* "poisson" */, pass, stream);
+    return sample_poisson(double(mean), rng);
   }
 };
 

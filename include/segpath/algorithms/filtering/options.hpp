@@ -59,6 +59,14 @@ struct FilteringOptions {
   /// PT): propagation runs max_length - 1 iterations (propagation/segment_budget.hpp).
   std::size_t max_length = 10;
   T light_path_ratio = T(1);  ///< beta: light paths per pixel per iteration (PhF, BDPF); 1: BDPF's best at equal time on box 1
+  /// PhF, BDPF: an iteration (pass) draws a Poisson(N_L) number of light paths, N_L = beta x
+  /// #pixels, and every density still counts N_L. The light paths are then a Poisson process
+  /// on path space, whose rest, given one of its paths, is the process itself (Slivnyak-Mecke):
+  /// what the path-conditioned weighting assumes when it takes D_l(s) less the successor's term
+  /// (its path's only term there, by the first-visit rule) for the light density of the rest of
+  /// the pool. False: exactly N_L light paths, O(1 / N_L) bright where a light path often holds
+  /// a technique sample in a chain's cluster (few light paths, large voxels; docs/filtering.md).
+  bool poisson_light_paths = true;
   /// PhF, BDPF: the probability c that a light path draws a predecessor at a non-delta vertex
   /// (Russian roulette, the same at every depth). Light paths have no depth limit, so whether a
   /// light-born segment can draw a predecessor never depends on its depth: every light-born
@@ -113,6 +121,7 @@ struct FilteringOptions {
 /// Counters of one iteration (pool size, clusters, how many were factorised).
 struct FilteringStats {
   std::uint64_t segments = 0, camera_segments = 0, light_segments = 0, bridge_segments = 0, clusters = 0;
+  std::uint64_t light_paths = 0;  ///< drawn (Context::drawn_light_paths)
   std::uint64_t next_event_segments = 0;  ///< among the camera segments
   std::uint64_t extra_segments = 0;  ///< drawn by the user's techniques (FilteringTechnique)
   /// Among the light (camera) segments: drawn at a light (camera) path's repeat visit of a
@@ -153,6 +162,7 @@ struct FilteringStats {
   /// Adds a later pass of the same iteration: counts and seconds sum, memory is the larger pass's.
   void add_pass(const FilteringStats& p) noexcept {
     segments += p.segments, camera_segments += p.camera_segments, light_segments += p.light_segments;
+    light_paths += p.light_paths;
     bridge_segments += p.bridge_segments, clusters += p.clusters, next_event_segments += p.next_event_segments;
     extra_segments += p.extra_segments, junctions += p.junctions, repeat_visit_segments += p.repeat_visit_segments;
     camera_repeat_visit_segments += p.camera_repeat_visit_segments;

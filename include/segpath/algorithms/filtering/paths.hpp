@@ -358,7 +358,8 @@ void draw_paths(Context<Scn>& ctx, const P& parallel_for, std::size_t later_draw
   using S = typename Scn::Spectrum;
   auto& pool = ctx.pool;
   const std::uint32_t pixels = ctx.pixels();
-  const std::uint64_t light_paths = ctx.light_paths();
+  const std::uint64_t light_paths = ctx.drawn_light_paths();
+  ctx.stats.light_paths = light_paths;
   std::vector<RecordList<T, S>> camera(path_chunks), light(path_chunks);
   parallel_for(path_chunks, [&](std::size_t c) {
     const std::uint64_t p0 = pixels * c / path_chunks, p1 = pixels * (c + 1) / path_chunks;
