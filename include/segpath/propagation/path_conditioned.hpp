@@ -47,12 +47,9 @@
 // Bridges: a target successor's term leaves the bridge density B as s_{i+1}'s leaves D_l, and a
 // bridge-born s_i has r_i = B' / (G B) (conditioned_junction.hpp, conditioned_coefficients).
 // Assumed of the pool: a path holds at most one technique sample per cluster, fixed before it
-// draws (filtering::Context::visit_grid), and no chain uses a segment twice (s -> s is never a
-// junction; a -> b -> a between a segment and the one that drew it is taken out:
-// ConditionedInputs::backtrack), and the light paths a Poisson process: D_l' is the light density
-// of the rest of the pool only if, given s_{i+1}'s path, the other paths are distributed as
-// unconditioned (a Poisson count: FilteringOptions::poisson_light_paths). The remaining
-// O(1 / N_L) bias: docs/filtering.md, "Known limits".
+// draws (filtering::Context::visit_grid); the light paths are a Poisson process, so that D_l' is
+// the rest's density (FilteringOptions::poisson_light_paths); no chain uses a segment twice (no
+// s -> s, nor a -> b -> a with its drawer: ConditionedInputs::backtrack). Bias left: docs/filtering.md.
 //
 // The recursion: r_i depends on s_{i+1} and on two bits, e(s_i) (from the suffix) and "forced"
 // (from the predecessor), so each segment carries four values, U_e and W_e for e in {0, 1}:
