@@ -174,10 +174,7 @@ TEST_CASE("segment filtering: a path draws technique samples only at its first v
     filter.build_pool(ctx);
     const auto& pool = ctx.pool;
     Clustering<double> clustering;
-    if (support == FilteringSupport::voxel) {
-      REQUIRE(ctx.visit_grid);
-      filtering::cluster(ctx, clustering, SerialFor{});
-    }
+    if (support == FilteringSupport::voxel) filtering::cluster(ctx, clustering, SerialFor{});
     const double radius = 0.5 / std::sqrt(pi<double>);  // pi r^2 = h^2
     // Whether vertex a (a segment and its end) is where vertex b is: the same cluster, or within
     // twice the disk radius at the canonical positions (a disk of radius r could hold both);
