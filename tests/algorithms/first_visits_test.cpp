@@ -145,14 +145,8 @@ TEST_CASE("segment filtering: through glass, a chain's backtrack partner is its 
   o.max_length = 8;
   o.light_path_ratio = 30;
   const Filter filter(o);
-  auto ctx = filter.context(scene, 0);
-  filter.build_pool(ctx);
-  const auto& pool = ctx.pool;
-  std::vector<std::uint32_t> backtrack;
-  filtering::backtrack_partners(pool, backtrack, SerialFor{});
-  REQUIRE(backtrack.size() == pool.size());
-  const testing::ExpectedPartners expected = testing::expected_partners(pool);
-  CHECK(expected.one_predecessor);
-  CHECK(backtrack == expected.partner);
-  CHECK(expected.chained > 100);
+  const testing::PartnersCheck check = testing::check_backtrack_partners(filter, scene);
+  CHECK(check.expected.one_predecessor);
+  CHECK(check.same);
+  CHECK(check.expected.chained > 100);
 }

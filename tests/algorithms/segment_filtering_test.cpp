@@ -312,17 +312,11 @@ TEST_CASE("segment filtering: a segment's backtrack partner is its light predece
   FilteringOptions<double> o;
   o.max_length = 4;
   const Filter filter(o);
-  auto ctx = filter.context(scene, 0);
-  filter.build_pool(ctx);
-  const auto& pool = ctx.pool;
-  std::vector<std::uint32_t> backtrack;
-  filtering::backtrack_partners(pool, backtrack, SerialFor{});
-  REQUIRE(backtrack.size() == pool.size());
-  const testing::ExpectedPartners expected = testing::expected_partners(pool);
-  CHECK(expected.one_predecessor);
-  CHECK(backtrack == expected.partner);
-  CHECK(expected.camera > 200);
-  CHECK(expected.light > 100);
+  const testing::PartnersCheck check = testing::check_backtrack_partners(filter, scene);
+  CHECK(check.expected.one_predecessor);
+  CHECK(check.same);
+  CHECK(check.expected.camera > 200);
+  CHECK(check.expected.light > 100);
 }
 
 TEST_CASE("segment filtering: factorised clusters give the same image", "[algorithms]") {

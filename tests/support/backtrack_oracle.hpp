@@ -39,4 +39,20 @@ ExpectedPartners expected_partners(const Pool& pool) {
   return e;
 }
 
+/// Draws `filter`'s iteration-0 pool in `scene` and compares backtrack_partners with the oracle.
+struct PartnersCheck {
+  ExpectedPartners expected;
+  bool same = false;  // backtrack_partners gave exactly expected.partner
+};
+template <class Filter, class Scene>
+PartnersCheck check_backtrack_partners(const Filter& filter, const Scene& scene) {
+  auto ctx = filter.context(scene, 0);
+  filter.build_pool(ctx);
+  std::vector<std::uint32_t> backtrack;
+  filtering::backtrack_partners(ctx.pool, backtrack, SerialFor{});
+  PartnersCheck c{expected_partners(ctx.pool)};
+  c.same = backtrack == c.expected.partner;
+  return c;
+}
+
 }  // namespace segpath::testing
