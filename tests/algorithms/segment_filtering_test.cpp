@@ -207,6 +207,7 @@ TEST_CASE("segment filtering: a path draws technique samples only at its first v
     std::vector<std::pair<Vertex, std::size_t>> held;
     std::size_t paths = 0;
     // The vertex at which segment i of a path draws the next: x for light paths, y for camera paths.
+    const bool camera_roulette = ctx.techniques.camera_continuation < 1;
     const auto check_path = [&](std::uint32_t first, bool light) {
       const std::size_t path = paths++;
       std::vector<Vertex> earlier;  // the path's technique samples so far
@@ -220,8 +221,9 @@ TEST_CASE("segment filtering: a path draws technique samples only at its first v
       for (std::uint32_t i = first; i != filtering::no_parent; i = drawn[i]) {
         length += pool.pieces[i];
         const Vertex v{i, light};
-        // Lambertian planes: every surface vertex draws (the camera's below its max length).
-        const bool tries = point(v).kind == PointKind::surface && (light || length < o.max_length);
+        // Lambertian planes: every surface vertex draws (the camera's below its max length only
+        // without a roulette: with one, camera paths have no depth limit, as light paths).
+        const bool tries = point(v).kind == PointKind::surface && (light || camera_roulette || length < o.max_length);
         if (!tries) {
           CHECK(drawn[i] == filtering::no_parent);
           continue;
@@ -938,7 +940,7 @@ TEST_CASE("BDPF is exact with one light path an iteration in large voxels when t
     o.seed = 31;
     const SegmentFiltering<PhotographedSlab<double>> method(o);
     DropCounters drops;
-    results[poisson] = image_means(method, scene, 0.5, 16000, size, drops);
+    results[poisson] = image_means(method, scene, 0.5, 40000, size, drops);
     CHECK(drops.total() == 0);
   }
   const double z_fixed = (results[0].mean() - expected) / results[0].standard_error();
@@ -946,7 +948,10 @@ TEST_CASE("BDPF is exact with one light path an iteration in large voxels when t
   INFO("Poisson count " << (results[1].mean() / expected - 1) * 100 << " % +- " << results[1].standard_error() / expected * 100
                         << " (z " << z_poisson << "), fixed " << (results[0].mean() / expected - 1) * 100 << " % +- "
                         << results[0].standard_error() / expected * 100 << " (z " << z_fixed << ")");
-  // Measured: Poisson +0.14 % +- 0.14 % (z 1.0), fixed +0.82 % +- 0.13 % (z 6.3).
+  // Measured: Poisson +0.14 % +- 0.14 % (z 1.0), fixed +0.82 % +- 0.13 % (z 6.3) at 16,000
+  // iterations; with camera paths that end by the roulette alone (session 52) the fixed count's
+  // excess is +0.36 +- 0.10 % (z 3.75 at 16,000), hence 40,000: Poisson +0.03 +- 0.06 %, fixed
+  // +0.34 +- 0.06 % (z 5.7).
   CHECK(std::abs(z_poisson) < 4);
   CHECK(std::abs(z_fixed) > 4);
 }

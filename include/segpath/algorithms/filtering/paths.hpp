@@ -102,8 +102,10 @@ void mark_visited(const Context<Scn>& ctx, const SurfacePoint<typename Scn::Scal
 }
 
 /// One camera path: the sensor segment, then approximate successors (N33) from each
-/// non-delta end; delta bounces extend the current segment into a chain. MVF and BDPF go
-/// to max_length segments (delta bounces count), PhF keeps only the sensor segment.
+/// non-delta end; delta bounces extend the current segment into a chain. With a camera
+/// roulette (c_c < 1) the path has no depth limit, only one segment's delta bounces are capped
+/// at max_length; without one (c_c = 1) it stops at max_length segments (delta bounces count).
+/// PhF keeps only the sensor segment.
 template <LightSampledScene Scn>
 void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
                        RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out, PathVisits<typename Scn::Scalar>& visits) {
@@ -118,6 +120,11 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
   if (!response || !(ray.position * ray.direction > T(0))) return;
   const std::size_t max_pieces = ctx.options.max_length;
   const T continuation = T(ctx.techniques.camera_continuation);  // the roulette's c_c
+  // No depth limit where the roulette ends the path, as for light paths: a segment whose end
+  // draws no successor leaves its chains no guaranteed technique sample in the next cluster,
+  // so a limit loses the chains through a path's last segment where no other path's sample is
+  // near (-1.0 % in the closed box at 32 x 32 and max length 4; docs/filtering.md, "Known limits").
+  const bool depth_limit = !(continuation < T(1));
   Record<T, S> r;
   r.segment.x = first->segment.x;
   r.first_direction = first->direction;
@@ -134,7 +141,7 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
   for (;;) {
     // Follow delta bounces: the segment continues through them.
     std::optional<BsdfSample<S>> next;
-    if (y.kind == PointKind::surface && pieces < max_pieces) {
+    if (y.kind == PointKind::surface && (depth_limit ? pieces : std::size_t(r.pieces)) < max_pieces) {
       next = bsdf.sample(BsdfSampleQuery<T>{y, -direction, uniform2<T>(rng), rng.template uniform<T>(), Transport::radiance});
       if (next && next->delta && next->pdf > T(0)) {
         chain = chain * (next->value * (std::abs(glm::dot(next->direction, y.normal)) / next->pdf));
@@ -164,7 +171,7 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
     // that failed: SMIS/MMIS denominators sum over all technique samples (N11, N39); leaving
     // the failed ones out would underestimate D and bias the image upwards (glossy lobes at
     // grazing angles fail often).
-    const bool attempted = ctx.techniques.camera_successors && pieces < max_pieces && y.kind == PointKind::surface;
+    const bool attempted = ctx.techniques.camera_successors && (!depth_limit || pieces < max_pieces) && y.kind == PointKind::surface;
     // A technique sample only at the path's first visit of a voxel (Context::visit_grid), as a
     // light path's: a later visit exists only if the successor drawn at the first does, so
     // counted in that successor's D_c it would raise it exactly where it was drawn. The
