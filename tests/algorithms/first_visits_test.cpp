@@ -28,8 +28,8 @@ namespace {
 using GlassScene = testing::PointLitSubmergedPlane<double>;
 using Filter = SegmentFiltering<GlassScene>;
 
-/// The square (primitive 0) is Lambertian: a path tries a draw at every vertex on it (a camera
-/// path below its max length); the interface (primitive 1) is delta and draws no technique sample.
+/// The square (primitive 0) is Lambertian: a path tries a draw at every vertex on it (paths have
+/// no depth limit); the interface (primitive 1) is delta and draws no technique sample.
 bool on_square(const SurfacePoint<double>& p) { return p.kind == PointKind::surface && p.primitive_id == 0; }
 
 /// point_lit_glass's square, interface and light seen by 64 probes (8 x 8 targets over the
@@ -76,13 +76,10 @@ TEST_CASE("segment filtering: through glass, a path draws technique samples only
     const auto check_path = [&](std::uint32_t first, bool light) {
       const std::size_t path = paths_checked++;
       std::vector<std::uint32_t> visited;  // clusters of the path's technique samples so far
-      std::size_t length = 0;
       for (std::uint32_t i = first; i != filtering::no_parent; i = drawn[i]) {
-        length += pool.pieces[i];
         const SurfacePoint<double>& v = light ? pool.segments[i].x : pool.segments[i].y;
         const std::uint16_t flag = light ? filtering::light_technique : filtering::camera_technique;
-        // A camera path's depth limit holds only without a roulette (trace_camera_path).
-        const bool tries = on_square(v) && (light || ctx.techniques.camera_continuation < 1 || length < o.max_length);
+        const bool tries = on_square(v);  // camera and light paths have no depth limit
         if (!tries) {
           CHECK((pool.flags[i] & flag) == 0);
           CHECK(drawn[i] == filtering::no_parent);

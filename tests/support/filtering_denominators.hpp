@@ -130,10 +130,11 @@ std::pair<std::size_t, std::size_t> check_denominators(const Filter& filter, con
         if (k > 0 && !kept && !dirac_end) {
           const double measure = chain ? 1.0 : double(solid_angle_to_area(T(1), seg.x, seg.y));
           // The camera roulette's coin is part of the draw (FilteringOptions::camera_continuation;
-          // automatic: 0.7 for BDPF, 1 for MVF).
-          const double c_c = filter.options().camera_continuation >= 0 ? double(filter.options().camera_continuation)
+          // automatic: 0.7 for BDPF, 1 for MVF); past max_length the tail's (c_c below 1, else 1/2).
+          const double c_o = filter.options().camera_continuation >= 0 ? double(filter.options().camera_continuation)
                              : filter.options().mode == FilteringMode::bdpf ? 0.7
                                                                                : 1.0;
+          const double c_c = (pool.flags[t] & filtering::camera_tail) ? (c_o < 1 ? c_o : 0.5) : c_o;
           d += c_c * k * measure *
                double(bsdf.pdf(BsdfQuery<T>{pool.segments[t].y, -pool.last_direction[t], pool.first_direction[s], Transport::radiance}));
           ++techniques;

@@ -66,6 +66,7 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
   // camera_continuation).
   const T continuation = T(ctx.techniques.light_continuation);
   const T camera_continuation = T(ctx.techniques.camera_continuation);
+  const T tail_continuation = T(ctx.techniques.camera_tail_continuation);  // camera_tail samples
   std::vector<T> camera_sum(pool.size(), T(0)), light_sum(pool.size(), T(0));
   std::vector<std::uint64_t> pairs(clusters.size(), 0);
   std::vector<std::uint8_t> camera_fact(clusters.size(), 0), light_fact(clusters.size(), 0);
@@ -93,30 +94,36 @@ void compute_densities(Context<Scn>& ctx, const Clustering<typename Scn::Scalar>
       camera_fact[c] = common ? 1 : 0;
       // The technique samples whose incoming direction the (one-sided) BSDF accepts.
       const SurfacePoint<T>& any_y = pool.segments[ending.front()].y;
-      const std::uint32_t valid_camera = !common ? 0 : count(ending, [&](std::uint32_t t) {
-        return (pool.flags[t] & camera_technique) && glm::dot(-pool.last_direction[t], any_y.normal) > one_sided_epsilon<T>;
-      });
+      // Valid technique points drawing with c_c, and with the tail's c (camera_tail).
+      const auto valid = [&](std::uint32_t t, bool tail) {
+        return (pool.flags[t] & camera_technique) && ((pool.flags[t] & camera_tail) != 0) == tail &&
+               glm::dot(-pool.last_direction[t], any_y.normal) > one_sided_epsilon<T>;
+      };
+      const std::uint32_t valid_camera = !common ? 0 : count(ending, [&](std::uint32_t t) { return valid(t, false); });
+      const std::uint32_t valid_tail = !common ? 0 : count(ending, [&](std::uint32_t t) { return valid(t, true); });
       for (const std::uint32_t sp : starting) {
         if (!camera_reachable(pool, sp)) continue;
         const Vec3<T>& w = pool.first_direction[sp];
-        T sum = T(0);
+        T sum = T(0), tail_sum = T(0);  // the p_w of the technique points drawing with c_c, with the tail's c
         if (common) {
           // Lambertian technique points with one normal: p_w = cos / pi for every t (+ one-sided
           // checks), s' itself not among them (a segment is not its own technique sample).
           const T cosine = glm::dot(w, *common);
-          const bool self = clustering.cluster_of_y(sp) == c && (pool.flags[sp] & camera_technique) &&
-                            glm::dot(-pool.last_direction[sp], any_y.normal) > one_sided_epsilon<T>;
-          if (glm::dot(w, any_y.normal) > one_sided_epsilon<T> && cosine > T(0))
+          const bool self = clustering.cluster_of_y(sp) == c && valid(sp, false);
+          const bool self_tail = clustering.cluster_of_y(sp) == c && valid(sp, true);
+          if (glm::dot(w, any_y.normal) > one_sided_epsilon<T> && cosine > T(0)) {
             sum = T(valid_camera - (self ? 1 : 0)) * cosine * inv_pi<T>;
+            tail_sum = T(valid_tail - (self_tail ? 1 : 0)) * cosine * inv_pi<T>;
+          }
           pairs[c] += 1;
         } else {
           for (const std::uint32_t t : ending) {
             if (!(pool.flags[t] & camera_technique) || t == sp) continue;
-            sum += camera_technique_pdf(scene, pool, t, sp);
+            ((pool.flags[t] & camera_tail) ? tail_sum : sum) += camera_technique_pdf(scene, pool, t, sp);
             pairs[c] += 1;
           }
         }
-        camera_sum[sp] = camera_continuation * cl.kernel * sum * camera_measure<Scn>(pool, sp);
+        camera_sum[sp] = (camera_continuation * cl.kernel * sum + tail_continuation * cl.kernel * tail_sum) * camera_measure<Scn>(pool, sp);
       }
     }
     // Light technique samples: segments starting here that were continued backwards; they
@@ -215,15 +222,17 @@ void compute_densities(Context<Scn>& ctx, const DiskJunctions<typename Scn::Scal
     for (std::size_t i = c * chunk; i < std::min(pool.size(), (c + 1) * chunk); ++i) {
       const auto sp = std::uint32_t(i);
       std::uint32_t camera_points = 0, targets = 0;
-      T sum = T(0);
+      T sum = T(0), tail_sum = T(0);  // the p_w of the technique points drawing with c_c, with the tail's c
       for (const std::uint32_t t : junctions.ending_near(sp)) {
         if (!(pool.flags[t] & camera_technique)) continue;
         ++camera_points;
         if (!camera_reachable(pool, sp)) continue;
-        sum += camera_technique_pdf(scene, pool, t, sp);
+        ((pool.flags[t] & camera_tail) ? tail_sum : sum) += camera_technique_pdf(scene, pool, t, sp);
         pairs[c] += 1;
       }
-      if (sum > T(0)) camera_sum[sp] = T(ctx.techniques.camera_continuation) * kernel * sum * camera_measure<Scn>(pool, sp);
+      if (sum > T(0) || tail_sum > T(0))
+        camera_sum[sp] = (T(ctx.techniques.camera_continuation) * kernel * sum + T(ctx.techniques.camera_tail_continuation) * kernel * tail_sum) *
+                         camera_measure<Scn>(pool, sp);
       sum = T(0);
       for (const std::uint32_t u : junctions.starting_near(sp)) {
         targets += (bridges && is_bridge_target(pool, u)) ? 1 : 0;

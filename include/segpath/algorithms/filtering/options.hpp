@@ -75,9 +75,9 @@ struct FilteringOptions {
   T light_continuation = T(-1);
   /// MVF, BDPF: the probability c_c that a camera path draws a successor at a non-delta vertex
   /// (Russian roulette, the same at every depth), in (0, 1]. A camera successor's density
-  /// carries it, as a light predecessor's carries c. Below 1 the camera paths have no depth
-  /// limit, as light paths; 1: no roulette, and the paths stop at max_length segments, which
-  /// biases chains through their last segments where clusters are sparse (docs/filtering.md).
+  /// carries it, as a light predecessor's carries c. 1: no roulette. Camera paths have no depth
+  /// limit, as light paths: past max_length segments they continue with the tail's roulette,
+  /// c_c, or 1/2 where c_c is 1 (TechniqueSet::camera_tail_continuation; docs/filtering.md).
   /// Negative: automatic, filtering::automatic_camera_continuation(mode).
   T camera_continuation = T(-1);
   T initial_cell_size = 0;       ///< voxel size of iteration 1; 0: 4x the average pixel footprint

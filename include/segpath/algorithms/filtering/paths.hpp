@@ -102,10 +102,10 @@ void mark_visited(const Context<Scn>& ctx, const SurfacePoint<typename Scn::Scal
 }
 
 /// One camera path: the sensor segment, then approximate successors (N33) from each
-/// non-delta end; delta bounces extend the current segment into a chain. With a camera
-/// roulette (c_c < 1) the path has no depth limit, only one segment's delta bounces are capped
-/// at max_length; without one (c_c = 1) it stops at max_length segments (delta bounces count).
-/// PhF keeps only the sensor segment.
+/// non-delta end; delta bounces extend the current segment into a chain. No depth limit: the
+/// roulette c_c ends the path, and past max_length segments the tail's
+/// (TechniqueSet::camera_tail_continuation); only one segment's delta bounces are capped at
+/// max_length. PhF keeps only the sensor segment.
 template <LightSampledScene Scn>
 void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
                        RecordList<typename Scn::Scalar, typename Scn::Spectrum>& out, PathVisits<typename Scn::Scalar>& visits) {
@@ -119,12 +119,13 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
   const auto response = scene.sensor().importance(SensorQuery<T>{first->segment.x, first->direction});
   if (!response || !(ray.position * ray.direction > T(0))) return;
   const std::size_t max_pieces = ctx.options.max_length;
-  const T continuation = T(ctx.techniques.camera_continuation);  // the roulette's c_c
-  // No depth limit where the roulette ends the path, as for light paths: a segment whose end
-  // draws no successor leaves its chains no guaranteed technique sample in the next cluster,
-  // so a limit loses the chains through a path's last segment where no other path's sample is
-  // near (-1.0 % in the closed box at 32 x 32 and max length 4; docs/filtering.md, "Known limits").
-  const bool depth_limit = !(continuation < T(1));
+  // The roulette's c_c, and past max_length the tail's. No depth limit, as for light paths: a
+  // segment whose end draws no successor leaves its chains no technique sample of their own in
+  // the next cluster, and a limit lost the chains through a path's last segment where no other
+  // path's sample was near (MVF -2.3 % in the closed box at 32 x 32 and max length 4 with c_c
+  // 0.7, -3.6 % with c_c 1; docs/filtering.md, "Known limits").
+  const T continuation = T(ctx.techniques.camera_continuation);
+  const T tail_continuation = T(ctx.techniques.camera_tail_continuation);
   Record<T, S> r;
   r.segment.x = first->segment.x;
   r.first_direction = first->direction;
@@ -141,7 +142,7 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
   for (;;) {
     // Follow delta bounces: the segment continues through them.
     std::optional<BsdfSample<S>> next;
-    if (y.kind == PointKind::surface && (depth_limit ? pieces : std::size_t(r.pieces)) < max_pieces) {
+    if (y.kind == PointKind::surface && r.pieces < max_pieces) {
       next = bsdf.sample(BsdfSampleQuery<T>{y, -direction, uniform2<T>(rng), rng.template uniform<T>(), Transport::radiance});
       if (next && next->delta && next->pdf > T(0)) {
         chain = chain * (next->value * (std::abs(glm::dot(next->direction, y.normal)) / next->pdf));
@@ -171,17 +172,19 @@ void trace_camera_path(const Context<Scn>& ctx, std::uint32_t pixel,
     // that failed: SMIS/MMIS denominators sum over all technique samples (N11, N39); leaving
     // the failed ones out would underestimate D and bias the image upwards (glossy lobes at
     // grazing angles fail often).
-    const bool attempted = ctx.techniques.camera_successors && (!depth_limit || pieces < max_pieces) && y.kind == PointKind::surface;
+    const bool attempted = ctx.techniques.camera_successors && y.kind == PointKind::surface;
+    const bool tail = pieces >= max_pieces;
+    const T c = tail ? tail_continuation : continuation;
     // A technique sample only at the path's first visit of a voxel (Context::visit_grid), as a
     // light path's: a later visit exists only if the successor drawn at the first does, so
     // counted in that successor's D_c it would raise it exactly where it was drawn. The
     // next-event draw, whose density counts the camera technique points, goes with it.
     const bool first_visit = !attempted || first_visit_of(ctx, y, visits);
     const bool technique = attempted && first_visit;
-    if (technique) r.flags |= camera_technique;
+    if (technique) r.flags |= camera_technique | (tail && c != continuation ? camera_tail : 0);
     // The roulette is part of the draw (as in trace_light_path); no coin is drawn without one.
     const bool continues = attempted && next && !next->delta && next->pdf > T(0) &&
-                           (continuation >= T(1) || rng.template uniform<T>() < continuation);
+                           (c >= T(1) || rng.template uniform<T>() < c);
     const auto index = std::uint32_t(out.size());
     out.push_back(r);
     if (technique && ctx.techniques.next_event) add_next_event(scene, index, r.segment.y, rng, out);

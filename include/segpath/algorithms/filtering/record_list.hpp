@@ -29,6 +29,9 @@ enum PoolFlag : std::uint16_t {
   /// (Context::visit_grid): no technique in any denominator drew it, so it joins no chain
   /// (G = 0); it still tries a draw of its own (paths.hpp).
   repeat_visit_born = 2048,
+  /// A camera technique sample past max_length whose draw's roulette is
+  /// TechniqueSet::camera_tail_continuation, not camera_continuation (set only where they differ).
+  camera_tail = 4096,
 };
 
 /// A segment as a technique produces it, before pooling.

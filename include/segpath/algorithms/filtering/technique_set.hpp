@@ -16,6 +16,10 @@ namespace segpath::filtering {
   return mode == FilteringMode::bdpf ? 0.7 : 1.0;
 }
 
+/// TechniqueSet::camera_tail_continuation without a roulette below max_length: past it a path
+/// draws one more segment on average.
+inline constexpr double camera_tail_roulette = 0.5;
+
 struct TechniqueSet {
   /// Sensor start (N29): one sensor segment per pixel (every method has it: the gather needs it).
   bool sensor_start = true;
@@ -24,6 +28,12 @@ struct TechniqueSet {
   /// c_c: the probability that a camera path draws a successor at a non-delta vertex (Russian
   /// roulette at every depth); a camera successor's density carries it.
   double camera_continuation = 1;
+  /// The camera roulette past max_length: camera paths have no depth limit, and from the end of
+  /// their max_length-th segment on they continue with this probability, c_c where c_c < 1,
+  /// else 1/2 (the technique samples flagged camera_tail). A path that stopped there would leave
+  /// the chains through its last segment no technique sample in the next cluster
+  /// (docs/filtering.md, "Known limits": the camera paths' depth limit).
+  double camera_tail_continuation = 1;
   /// Light-end bridges (N34, approximate): from every camera technique point, one segment to a
   /// light point drawn by the emitter.
   bool next_event = false;
@@ -48,6 +58,7 @@ template <Real T>
   set.camera_continuation = !camera                          ? 0.0
                             : o.camera_continuation >= T(0) ? double(o.camera_continuation)
                                                             : automatic_camera_continuation(o.mode);
+  set.camera_tail_continuation = set.camera_continuation < 1.0 ? set.camera_continuation : camera_tail_roulette;
   set.next_event = camera && o.next_event;
   set.light_paths_per_pixel = light ? double(o.light_path_ratio) : 0.0;
   set.light_predecessors = light;
