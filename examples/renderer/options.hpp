@@ -170,7 +170,7 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
       ->check(unsigned_integer)->check(CLI::Range(std::size_t(0), std::size_t(1000)));
   app.add_option("--camera-continuation", o.camera_continuation,
                  "mvf/bdpf: probability that a camera path continues at a non-delta vertex (Russian roulette at "
-                 "every depth), in (0, 1]; default 0.7 (bdpf), 1 (mvf: no roulette)")
+                 "every depth), in (0, 1]; default 0.7 (bdpf), 1 (mvf: no roulette; past --max-length segments 1/2)")
       ->check(half_open_unit_interval);
   app.add_option("--support", o.support, "mvf/phf/bdpf: kernel support of the junctions, voxel (the paper's) or disk")
       ->check(CLI::IsMember({"voxel", "disk"}))
