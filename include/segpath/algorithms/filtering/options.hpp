@@ -114,8 +114,7 @@ struct FilteringOptions {
   /// An iteration draws its pool in this many passes, pass k over pixels k, k + passes, ...
   /// with its share of the light paths and of the user's draws (Context::light_paths): each
   /// pass estimates its own pixels from a pool 1 / passes the size, so memory falls that much
-  /// and the noise per second rises (fewer paths to reuse; MVF's coverage bias, a cluster
-  /// without a technique sample, grows as the pool thins). For pools that do not fit.
+  /// and the noise per second rises (fewer paths to reuse). For pools that do not fit.
   std::uint32_t pixel_passes = 1;
   std::uint64_t seed = 1;
 };
