@@ -142,6 +142,13 @@ std::uint64_t peak_resident_bytes() {
 /// 1.02-1.05 (docs/figures.md, session 31).
 constexpr double light_path_slack = 1.05;
 
+/// The memory estimate's pilot render: at most 64 x 64 pixels, fewer (down to 32 x 32) where a
+/// large --beta would give it more than pilot_light_paths light paths, and at most
+/// pilot_most_beta light paths a pixel (beyond that it lowers its beta and scales what the light
+/// paths keep back up), so that the pilot itself stays small (docs/figures.md, session 53).
+constexpr double pilot_most_pixels = 64.0 * 64, pilot_least_pixels = 32.0 * 32, pilot_most_beta = 64;
+constexpr double pilot_light_paths = pilot_least_pixels * pilot_most_beta;
+
 /// A render's estimated peak memory, in bytes: the transfer cache of the filtering methods apart.
 struct PeakEstimate {
   double rest = 0;   ///< bytes besides the transfer cache
@@ -149,7 +156,8 @@ struct PeakEstimate {
   double pool = 0;   ///< in rest: one pass's pool (filtering methods; --passes divides it)
   double light_paths = 0;  ///< in rest: LT's splats, BDPT's and the VCM family's light subpaths (--beta scales them)
   double process = 0;      ///< in rest: what the process has resident before the render (scene, BVH, libraries)
-  [[nodiscard]] std::uint64_t total() const noexcept { return std::uint64_t(rest + cache); }
+  /// In bytes, saturated: an absurd --beta may estimate more than a std::uint64_t holds.
+  [[nodiscard]] std::uint64_t total() const noexcept { return std::uint64_t(std::min(rest + cache, 0x1p63)); }
 };
 
 /// A renderer method whose iteration keeps paths in proportion to the image: the filtering
@@ -179,9 +187,12 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo,
   // sum, already resident, becomes the accumulator.
   bytes = estimate.process + std::max(0.0, 64.0 * pixels - held_image_bytes);
   if (!std::visit([](const auto& m) { return KeepsPaths<std::remove_cvref_t<decltype(m)>>; }, render_method)) return estimate;
-  // At most 64 x 64 pixels, the render's aspect kept (one side may shrink to 1 pixel).
+  // At most 64 x 64 pixels, the render's aspect kept (one side may shrink to 1 pixel), and
+  // fewer where a large --beta would give it more than pilot_light_paths light paths: at the
+  // same beta and voxel in footprints, a smaller pilot keeps the render's density of segments.
   Options pilot = o;
-  const double shrink = std::min(1.0, 64.0 / std::sqrt(pixels));
+  const double pilot_pixels = std::clamp(pilot_light_paths / mo.beta.value_or(1.0), pilot_least_pixels, pilot_most_pixels);
+  const double shrink = std::min(1.0, std::sqrt(pilot_pixels / pixels));
   pilot.width = std::max<std::uint32_t>(1, std::uint32_t(std::lround(o.width * shrink)));
   pilot.height = std::max<std::uint32_t>(1, std::uint32_t(std::lround(o.height * shrink)));
   const renderer::RenderScene pilot_scene = load_scene(pilot);
@@ -192,6 +203,13 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo,
   // 1 / sqrt(the camera's inverse pixel area): the pilot's footprint over the render's.
   const double footprints = std::sqrt(double(scene.sensor().inverse_pixel_area()) / double(pilot_scene.sensor().inverse_pixel_area()));
   if (quiet.radius) *quiet.radius = std::min(*quiet.radius * footprints, double(std::numeric_limits<float>::max()));
+  // Beyond pilot_most_beta the pilot's beta is lowered, and what its light paths keep is
+  // scaled back by light_scale (a lower bound: denser clusters hold more pairs a segment).
+  double light_scale = 1;
+  if (quiet.beta && *quiet.beta > pilot_most_beta) {
+    light_scale = *quiet.beta / pilot_most_beta;
+    quiet.beta = pilot_most_beta;
+  }
   auto method = renderer::make_method(o.method, quiet);
   renderer::Stats stats;
   std::optional<segpath::FilteringStats> f;
@@ -212,16 +230,19 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo,
   // LT, BDPT and the VCM family: the light subpaths' ends, photon grid and splats, in proportion
   // to the light paths (--beta x pixels), with a factor for the heap around them (measured:
   // docs/figures.md, session 31), besides their fixed scratch.
-  estimate.light_paths += light_path_slack * pilot_light_path_bytes * scale;
+  estimate.light_paths += light_path_slack * pilot_light_path_bytes * scale * light_scale;
   bytes += estimate.light_paths;
   if (!f) return estimate;
   // The pool of one pass, and 10 % for the heap's holes around it (docs/figures.md, session 27),
-  // and the records' unfilled blocks, as many as the pilot's whatever the size.
-  estimate.pool = 1.1 * double(f->segments) * scale * double(f->bytes_per_segment) / double(mo.passes) + double(f->record_slack_bytes);
+  // and the records' unfilled blocks, as many as the pilot's whatever the size. Light segments
+  // grow by light_scale besides.
+  const double segments = (double(f->segments) + (light_scale - 1) * double(f->light_segments)) * scale;
+  estimate.pool = 1.1 * segments * double(f->bytes_per_segment) / double(mo.passes) + double(f->record_slack_bytes);
   bytes += estimate.pool;
   const double cache_budget = mo.transfer_cache_mib ? double(*mo.transfer_cache_mib) * (1 << 20)
                                                     : double(segpath::FilteringOptions<float>{}.transfer_cache_bytes);
-  estimate.cache = std::min(cache_budget, double(f->transfer_cache_bytes) * scale / double(mo.passes));
+  const double cache_growth = f->segments > 0 ? segments / (double(f->segments) * scale) : 1.0;
+  estimate.cache = std::min(cache_budget, double(f->transfer_cache_bytes) * scale * cache_growth / double(mo.passes));
   return estimate;
 }
 

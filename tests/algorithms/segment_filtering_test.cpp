@@ -90,6 +90,18 @@ TEST_CASE("segment filtering: bad options are rejected", "[algorithms]") {
     CHECK_THROWS_AS(SegmentFiltering<Scn>(o).render_iteration_at(scene, 0, 0.5, image, drops), std::invalid_argument);
     o.pixel_passes = 8;
     CHECK_NOTHROW(SegmentFiltering<Scn>(o).render_iteration_at(scene, 0, 0.5, image, drops));
+    // More light paths in a pass than its pool's 32-bit segment indices allow, refused before
+    // anything is drawn (it would have run out of memory drawing them); more passes share them.
+    // beta x #pixels beyond 2^64 saturates (std::llround of it was undefined).
+    o.pixel_passes = 1;
+    o.light_path_ratio = 0x1p28;  // 2^32 light paths
+    CHECK_THROWS_AS(filtering::check_passes(scene, o), std::invalid_argument);
+    CHECK_THROWS_AS(SegmentFiltering<Scn>(o).render_iteration_at(scene, 0, 0.5, image, drops), std::invalid_argument);
+    o.pixel_passes = 2;
+    CHECK_NOTHROW(filtering::check_passes(scene, o));
+    o.light_path_ratio = 1e30;
+    CHECK(filtering::light_path_count(scene, filtering::technique_set(o)) == std::numeric_limits<std::uint64_t>::max());
+    CHECK_THROWS_AS(filtering::check_passes(scene, o), std::invalid_argument);
   }
   o = {};
   o.next_event = true;  // from camera technique points, which PhF has none of: it draws none

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -20,11 +21,17 @@
 
 namespace segpath::filtering {
 
-/// N_L: light paths per iteration, beta x #pixels (none for MVF).
+/// N_L: light paths per iteration, beta x #pixels (none for MVF), rounded; saturated at the
+/// largest std::uint64_t (check_passes refuses far fewer).
 template <LightSampledScene Scn>
 [[nodiscard]] std::uint64_t light_path_count(const Scn& scene, const TechniqueSet& techniques) noexcept {
-  return std::uint64_t(std::llround(techniques.light_paths_per_pixel * double(scene.sensor().pixel_count())));
+  const double n = std::round(techniques.light_paths_per_pixel * double(scene.sensor().pixel_count()));
+  return n < 0x1p64 ? std::uint64_t(n) : std::numeric_limits<std::uint64_t>::max();
 }
+
+/// The most light paths one pass may draw: a pass's pool indexes its segments in 32 bits
+/// (no_parent is the largest index), and a light path may pool one segment or more.
+inline constexpr std::uint64_t max_light_paths_per_pass = no_parent - 1;
 
 /// Pass `pass`'s share of an iteration's `total` draws in `passes` passes (FilteringOptions::
 /// pixel_passes): total / passes, and one more for the first total mod passes passes.
@@ -43,10 +50,16 @@ template <LightSampledScene Scn, Real T>
 }
 
 /// Throws std::invalid_argument, naming the bound, where FilteringOptions::pixel_passes exceeds
-/// max_passes(scene, options).
+/// max_passes(scene, options), or where a pass would draw more than max_light_paths_per_pass
+/// light paths (beta x #pixels / passes).
 template <LightSampledScene Scn, Real T>
 void check_passes(const Scn& scene, const FilteringOptions<T>& options) {
   const std::uint64_t pixels = scene.sensor().pixel_count(), passes = options.pixel_passes;
+  if (const std::uint64_t light_paths = light_path_count(scene, technique_set(options));
+      pass_share(light_paths, 0, std::uint32_t(passes)) > max_light_paths_per_pass)
+    throw std::invalid_argument("segpath::SegmentFiltering: beta x #pixels = " + std::to_string(light_paths) +
+                                " light paths an iteration in " + std::to_string(passes) + " pixel pass(es), more than a pass's pool "
+                                "can index (" + std::to_string(max_light_paths_per_pass) + " a pass): lower beta or use more passes");
   if (passes <= max_passes(scene, options)) return;
   if (passes > pixels)
     throw std::invalid_argument("segpath::SegmentFiltering: " + std::to_string(passes) + " pixel passes for " +

@@ -10,6 +10,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace segpath::filtering {
@@ -66,6 +68,10 @@ void append(Pool<T, S>& pool, const std::vector<RecordList<T, S>>& chunks, const
   std::vector<std::size_t> base(chunks.size() + 1, pool.size());
   for (std::size_t c = 0; c < chunks.size(); ++c) base[c + 1] = base[c] + chunks[c].size();
   const std::size_t total = base.back();
+  if (total >= no_parent)
+    throw std::length_error("segpath::SegmentFiltering: a pass's pool of " + std::to_string(total) +
+                            " segments is more than its 32-bit indices allow (" + std::to_string(no_parent - 1) +
+                            "): use more pixel passes or fewer light paths (beta)");
   pool.segments.resize(total), pool.first_direction.resize(total), pool.last_direction.resize(total);
   pool.chain.resize(total), pool.geometry.resize(total), pool.sensor_weight.resize(total), pool.pixel.resize(total);
   pool.density.resize(total);
