@@ -158,7 +158,8 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
       ->capture_default_str();
   app.add_option("--radius", o.radius,
                  "initial kernel radius (bdpt/ppm/bpm/vcm) or voxel size (mvf/phf/bdpf), > 0; default: 1.25x (vcm), 2x (ppm/bpm) "
-                 "or 4x (filtering) the average pixel footprint")
+                 "or 4x (filtering) the average pixel footprint; vcm refuses a radius whose MIS weights would leave float's "
+                 "range and names the range that works")
       ->check(kernel_size);
   app.add_option("--alpha", o.alpha, "progressive kernel shrinking, in (0, 1); default 0.75 (vcm family), 0.67 (filtering)")
       ->check(open_unit_interval);

@@ -6,6 +6,7 @@
 #include <segpath/testing/sphere_interior.hpp>
 
 #include <algorithm>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -246,6 +247,45 @@ TEST_CASE("VCM rejects bad options with clear messages", "[algorithms][vcm]") {
   CHECK_THROWS_AS(v.render_iteration(scene, 0, wrong, drops, SerialFor{}), std::invalid_argument);
   Framebuffer<double> image(3, 2);
   CHECK_THROWS_AS(v.render_iteration_at(scene, 0, 0.0, image, drops, SerialFor{}), std::invalid_argument);
+}
+
+TEST_CASE("VCM refuses a merge radius whose MIS factors leave the scalar type's range", "[algorithms][vcm]") {
+  // In float, eta = pi r^2 N and its power heuristic enter every MIS partial sum: on box 1 at
+  // 32 x 32 (1,024 light paths) radius 1e-10 rendered 2 % dark and 1e-19 26 % dark (whole
+  // techniques' weights overflowed to 0) without a word. BPM and PPM do not weigh by eta.
+  using FloatSphere = PinholeView<testing::SphereInterior<float>>;
+  testing::SphereInteriorParameters<float> p;
+  PinholeCameraParameters<float> c;
+  c.forward = {0, 0, 1};
+  c.right = {1, 0, 0};
+  c.up = {0, 1, 0};
+  c.width = 32;
+  c.height = 32;
+  const FloatSphere scene(c, p, std::vector<Vec3<float>>{{0, 0, 1}});
+  Framebuffer<float> image(32, 32);
+  DropCounters drops;
+  const auto message_at = [&](VcmMode mode, float radius) -> std::string {
+    VcmOptions o;
+    o.mode = mode;
+    try {
+      VertexConnectionMerging<FloatSphere>(o).render_iteration_at(scene, 0, radius, image, drops, SerialFor{});
+    } catch (const std::invalid_argument& e) {
+      return e.what();
+    }
+    return "";
+  };
+  using V = VertexConnectionMerging<FloatSphere>;
+  CHECK(V::max_mis_factor == Approx(std::numeric_limits<float>::max() * 1e-14f));
+  // The range for 1,024 light paths and the power heuristic: eta^2 and eta^-2 at most 3.4e24.
+  const std::string small = message_at(VcmMode::vcm, 1e-10f);
+  CHECK(small.find("merge radius 1e-10 with 1024 light paths") != std::string::npos);
+  CHECK(small.find("use a radius from 1.3e-08 to 2.39e+04") != std::string::npos);
+  CHECK_FALSE(message_at(VcmMode::vcm, 1e5f).empty());
+  CHECK(message_at(VcmMode::vcm, 1e-6f).empty());
+  CHECK(message_at(VcmMode::vcm, 1e4f).empty());
+  CHECK(message_at(VcmMode::bpm, 1e-10f).empty());
+  CHECK(message_at(VcmMode::ppm, 1e-10f).empty());
+  CHECK(message_at(VcmMode::bdpt, 1e-10f).empty());  // no merging: the radius is ignored
 }
 
 TEST_CASE("the kernel radius follows ProgressiveRadius from iteration 0", "[algorithms][vcm]") {
