@@ -128,6 +128,24 @@ TEMPLATE_TEST_CASE("clusters are exactly the runs of equal endpoint keys", "[pro
   CHECK(clustering.bytes_per_segment() > 0);
 }
 
+TEMPLATE_TEST_CASE("a surface end beyond the grid's 32-bit cells is refused, not left out of every cluster",
+                   "[propagation]", float, double) {
+  // At voxel size 1e-9 a point at x = 2 lies 2e9 cells out (the keys stop at 2^30): it joined
+  // no cluster, so the chains through it were lost and BDPF and MVF rendered box 1 dark (direct
+  // light only at 1e-30) without a word. Sensor and infinite ends join no cluster by design.
+  using T = TestType;
+  const SurfacePoint<T> near = SurfacePoint<T>::on_surface({T(0.5), T(0.5), T(0.5)}, {0, 0, 1});
+  const SurfacePoint<T> far = SurfacePoint<T>::on_surface({T(2), T(0.5), T(0.5)}, {0, 0, 1});
+  const std::vector<Segment<T>> fine = {{SurfacePoint<T>::at_point({0, 0, 0}), near},
+                                        {near, SurfacePoint<T>::at_infinity({0, 0, 1})}};
+  Clustering<T> clustering;
+  CHECK_NOTHROW(clustering.build(VoxelGrid<T>(T(1e-9)), std::span<const Segment<T>>(fine)));
+  const std::vector<Segment<T>> beyond = {{near, far}};
+  CHECK_THROWS_WITH(clustering.build(VoxelGrid<T>(T(1e-9)), std::span<const Segment<T>>(beyond)),
+                    Catch::Contains("1 segment ends lie more than 2^30 voxels from the origin at voxel size 1e-09"));
+  CHECK_NOTHROW(clustering.build(VoxelGrid<T>(T(1e-8)), std::span<const Segment<T>>(beyond)));
+}
+
 TEMPLATE_TEST_CASE("slots number each end's refs in cluster order", "[propagation]", float, double) {
   using T = TestType;
   Pcg32 rng(31, 4);

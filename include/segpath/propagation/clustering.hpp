@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <span>
@@ -223,6 +224,7 @@ class Clustering {
     std::int32_t hi[3] = {std::numeric_limits<std::int32_t>::min(), std::numeric_limits<std::int32_t>::min(),
                           std::numeric_limits<std::int32_t>::min()};
     std::size_t count = 0, offset = 0;
+    std::size_t out_of_range = 0;  ///< finite surface points beyond the grid's 32-bit cells
   };
   /// A code with its segment beside it, when code and segment do not fit in 64 bits together.
   struct WideCode {
@@ -247,13 +249,26 @@ class Clustering {
           q.position = canonical(p);
           const auto r = grid.key(q);
           refs_[2 * i + end] = {r.key, static_cast<std::uint32_t>(i), r.valid ? end : invalid_end};
-          if (!r.valid) continue;
+          if (!r.valid) {
+            k.out_of_range += q.kind == PointKind::surface && is_finite(q.position) ? 1 : 0;
+            continue;
+          }
           ++k.count;
           const std::int32_t v[3] = {r.key.x, r.key.y, r.key.z};
           for (int a = 0; a < 3; ++a) k.lo[a] = std::min(k.lo[a], v[a]), k.hi[a] = std::max(k.hi[a], v[a]);
         }
       }
     });
+    // Such a point would join no cluster, and the chains through it would be lost unseen.
+    std::size_t out_of_range = 0;
+    for (const ChunkKeys& k : chunks_) out_of_range += k.out_of_range;
+    if (out_of_range > 0) {
+      char cell[32];
+      std::snprintf(cell, sizeof cell, "%.3g", double(grid.cell_size()));
+      throw std::invalid_argument("segpath::Clustering: " + std::to_string(out_of_range) +
+                                  " segment ends lie more than 2^30 voxels from the origin at voxel size " + cell +
+                                  ": use a larger voxel");
+    }
   }
 
   /// Sorts the valid refs by (key, end, segment): refs are in segment order, x end first, so a
