@@ -2,6 +2,7 @@
 // the same image as the O(n m) sums, images independent of the thread count, bad options
 // rejected.
 #include <segpath/algorithms/segment_filtering.hpp>
+#include <segpath/estimators/recursive_mmis.hpp>
 #include <segpath/sensors/pinhole_camera.hpp>
 #include <segpath/testing/integrate.hpp>
 #include <segpath/testing/lit_plane.hpp>
@@ -381,6 +382,53 @@ TEST_CASE("segment filtering: a segment's backtrack partner is its light predece
   CHECK(check.same);
   CHECK(check.expected.camera > 200);
   CHECK(check.expected.light > 100);
+}
+
+TEST_CASE("segment filtering: the paper's weighting takes no round trip with the segment that drew it", "[algorithms]") {
+  // MVF and PhF propagate with the paper's weighting (propagation/propagate.hpp). In the slab
+  // with one voxel per period many draws land in the voxel they came from, and a chain through
+  // such a segment and the one that drew it could go back and forth (in Cornell box 3, one
+  // such pair on the glossy floor made a firefly of 2e5 in one pixel). The pool's propagation
+  // must equal the recursive estimator over chains that use no segment twice in a row with its
+  // partner (backtrack_partners), and differ from the one that allows it.
+  using Filter = SegmentFiltering<PhotographedSlab<double>>;
+  const PhotographedSlab<double> scene(furnace, 6);
+  for (const FilteringMode mode : {FilteringMode::mvf, FilteringMode::phf}) {
+    INFO("mode " << to_string(mode));
+    FilteringOptions<double> o;
+    o.mode = mode;
+    o.max_length = 4;
+    o.light_path_ratio = 1;
+    const Filter filter(o);
+    auto ctx = filter.context(scene, 0, 0, 1.0);  // one voxel per period: many round trips
+    filter.build_pool(ctx);
+    Clustering<double> clustering;
+    filtering::cluster(ctx, clustering, SerialFor{});
+    filtering::compute_densities(ctx, clustering, SerialFor{});
+    std::vector<double> radiance, weighted_geometry;
+    const int iterations = int(o.max_length) - 1;
+    filtering::propagate_pool(ctx, clustering, iterations, radiance, weighted_geometry, SerialFor{});
+    const auto& pool = ctx.pool;
+    std::vector<std::uint32_t> backtrack;
+    filtering::backtrack_partners(pool, backtrack, SerialFor{});
+    auto link = [&](std::uint32_t s, std::uint32_t sp) {
+      return scene.bsdf().eval(BsdfQuery<double>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp],
+                                                 Transport::radiance}) *
+             pool.chain[s];
+    };
+    int compared = 0, round_trips = 0;
+    for (std::uint32_t s = 0; s < pool.size(); ++s) {
+      if (clustering.cluster_of_y(s) == no_cluster) continue;
+      const double expected =
+          recursive_mmis_radiance<double>(clustering, pool.emitted, weighted_geometry, link, s, iterations, backtrack);
+      CHECK(radiance[s] == Approx(expected).epsilon(1e-9).margin(1e-300));
+      ++compared;
+      const double with_trips = recursive_mmis_radiance<double>(clustering, pool.emitted, weighted_geometry, link, s, iterations);
+      if (std::abs(with_trips - expected) > 1e-6 * expected) ++round_trips;
+    }
+    CHECK(compared > 100);
+    CHECK(round_trips > 50);
+  }
 }
 
 TEST_CASE("segment filtering: factorised clusters give the same image", "[algorithms]") {

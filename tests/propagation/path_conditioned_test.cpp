@@ -448,7 +448,7 @@ TEST_CASE("path-conditioned propagation: factorised clusters give the general su
 
 TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[propagation]") {
   Pcg32 rng(2026, 12);
-  int compared = 0, cut = 0;
+  int compared = 0, cut = 0, backtracked = 0;
   for (int trial = 0; trial < 300; ++trial) {
     RandomSides p = make_sides(rng);
     const bool disk = trial % 2 == 1;
@@ -459,6 +459,8 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
     finish_densities(p, rng, near_of);
     std::vector<std::uint16_t> pieces(p.n);
     for (auto& q : pieces) q = std::uint16_t(rng.uniform<double>() < 0.6 ? 1 : 2 + rng.next_u32() % 3);
+    // Round trips through a chain: the part taken out is the one at the budget it was read at.
+    if (trial % 4 >= 2) p.add_backtracks(rng, near_of);
     auto inputs = p.inputs();
     inputs.pieces = pieces;
     const int depth = 1 + int(rng.next_u32() % 4);
@@ -499,15 +501,19 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
     CHECK(memory.lagged >= rings + watches * 10);
     CHECK(memory.lagged <= rings + watches * 20);
     CHECK(memory.forced_values == (forced_starts + forced_slots + 2) * sizeof(std::array<double, 2>) + (forced_starts + 1) * 4);
+    RandomSides with_trips = p;
+    with_trips.backtrack.clear();
     for (std::uint32_t s = 0; s < p.n; ++s) {
       const double reference = naive(p, s, depth, near_of, [&](std::uint32_t q) { return kernel[q]; }, pieces);
       CHECK(result[s] == Approx(reference).epsilon(1e-10).margin(1e-12));
       ++compared;
       cut += reference != naive(p, s, depth, near_of, [&](std::uint32_t q) { return kernel[q]; });
+      backtracked += !p.backtrack.empty() && reference != naive(with_trips, s, depth, near_of, [&](std::uint32_t q) { return kernel[q]; }, pieces);
     }
   }
   CHECK(compared > 1500);
   CHECK(cut > 300);
+  CHECK(backtracked > 10);  // round trips, through chains too, change values
 }
 
 TEST_CASE("the compact emission of a slot is conditioned_emission bit for bit, at zero, denormal, infinite and NaN densities",

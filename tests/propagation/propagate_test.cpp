@@ -1,8 +1,10 @@
 // Propagation (Algorithm 1) equals the naive recursive MMIS estimator (N39) on random small
-// pools, and the factorised clusters give the same numbers as the general sum.
+// pools, with and without round trips between backtrack partners, and the factorised clusters
+// give the same numbers as the general sum.
 #include <segpath/estimators/recursive_mmis.hpp>
 #include <segpath/propagation/propagate.hpp>
 
+#include <algorithm>
 #include <vector>
 
 #include "support/catch.hpp"
@@ -38,33 +40,66 @@ RandomPool make_pool(Pcg32& rng) {
   return pool;
 }
 
+/// Backtrack partners (PropagationInputs::backtrack): most often a segment joined both ways with
+/// s (its start near y_s and s's start near its y), so that chains can go round trips between
+/// them; sometimes a start near y_s only, a segment anywhere, none, or each other's partner.
+std::vector<std::uint32_t> random_backtracks(Pcg32& rng, const Clustering<double>& clustering, std::size_t n) {
+  auto near = [&](std::uint32_t s) -> std::vector<std::uint32_t> {
+    const std::uint32_t c = clustering.cluster_of_y(s);
+    if (c == no_cluster) return {};
+    std::vector<std::uint32_t> starts;
+    for (const std::uint32_t sp : clustering.starting_segments(c))
+      if (sp != s) starts.push_back(sp);
+    return starts;
+  };
+  std::vector<std::uint32_t> backtrack(n, no_cluster);
+  for (std::uint32_t s = 0; s < n; ++s) {
+    const double u = rng.uniform<double>();
+    std::vector<std::uint32_t> both;
+    for (const std::uint32_t b : near(s))
+      if (std::ranges::count(near(b), s) > 0) both.push_back(b);
+    const auto starts = near(s);
+    if (u < 0.6 && !both.empty()) backtrack[s] = both[rng.next_u32() % both.size()];
+    else if (u < 0.7 && !starts.empty()) backtrack[s] = starts[rng.next_u32() % starts.size()];
+    else if (u < 0.8) backtrack[s] = rng.next_u32() % std::uint32_t(n);
+    if (backtrack[s] < n && rng.uniform<double>() < 0.2) backtrack[backtrack[s]] = s;  // each other's
+  }
+  return backtrack;
+}
+
 }  // namespace
 
 TEST_CASE("propagation equals the naive recursive MMIS estimator on 1000 random pools", "[propagation][estimators]") {
   Pcg32 rng(2025, 6);
-  int compared = 0, nontrivial = 0, self_joined = 0;
+  int compared = 0, nontrivial = 0, self_joined = 0, backtracked = 0;
   for (int trial = 0; trial < 1000; ++trial) {
     const RandomPool pool = make_pool(rng);
     Clustering<double> clustering;
     clustering.build(VoxelGrid<double>(1.0, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)),
                      pool.segments);
     auto link = [&](std::uint32_t s, std::uint32_t sp) { return pool.link_table[s * pool.n + sp]; };
-    const PropagationInputs<double, decltype(link)> inputs{clustering, pool.emitted, pool.weighted_geometry, link};
+    const std::vector<std::uint32_t> backtrack =
+        trial % 2 ? random_backtracks(rng, clustering, pool.n) : std::vector<std::uint32_t>{};
+    const PropagationInputs<double, decltype(link)> inputs{clustering, pool.emitted, pool.weighted_geometry, link, {}, {}, {},
+                                                           backtrack};
     const int depth = 1 + int(rng.next_u32() % 5);
     std::vector<double> radiance, scratch;
     propagate(inputs, depth, radiance, scratch);
     for (std::uint32_t s = 0; s < pool.n; ++s) {
-      const double reference = recursive_mmis_radiance<double>(clustering, pool.emitted, pool.weighted_geometry, link, s, depth);
+      const double reference =
+          recursive_mmis_radiance<double>(clustering, pool.emitted, pool.weighted_geometry, link, s, depth, backtrack);
       CHECK(radiance[s] == Approx(reference).epsilon(1e-12).margin(1e-300));
       ++compared;
       if (reference != pool.emitted[s]) ++nontrivial;
+      if (reference != recursive_mmis_radiance<double>(clustering, pool.emitted, pool.weighted_geometry, link, s, depth)) ++backtracked;
       self_joined += clustering.cluster_of_y(s) != no_cluster && clustering.cluster_of_y(s) == clustering.cluster_of_x(s);
     }
   }
-  // The pools must exercise the recursion, not only L_e, and segments with both ends in one
-  // cluster (which must not join themselves).
+  // The pools must exercise the recursion, not only L_e, segments with both ends in one
+  // cluster (which must not join themselves) and round trips (which must be left out).
   CHECK(nontrivial > compared / 4);
   CHECK(self_joined > 100);
+  CHECK(backtracked > 300);
 }
 
 TEST_CASE("a segment never joins itself, general or factorised", "[propagation]") {
@@ -93,6 +128,46 @@ TEST_CASE("a segment never joins itself, general or factorised", "[propagation]"
     CHECK(a[0] == Approx(expected));
     CHECK(b[0] == Approx(expected));
     CHECK(recursive_mmis_radiance<double>(clustering, emitted, weighted_geometry, link, 0, k) == Approx(expected));
+  }
+}
+
+TEST_CASE("a chain goes no round trip with the segment that drew it, general or factorised", "[propagation]") {
+  // a ends where b starts and b ends where a starts (a light path's segment and the predecessor
+  // it drew that came back to its voxel), each junction of gain K f_r G w = 100 x 1 x 0.5 = 50
+  // (a glossy lobe's peak): were a -> b -> a chains summed, k sweeps would raise L to about
+  // 2500^(k / 2). a's other successor t ends outside and carries L_e = 2.
+  const auto at = [](double x, double z) { return SurfacePoint<double>::on_surface({x, 0.5, z}, {0, 0, 1}); };
+  const std::vector<Segment<double>> segments{{at(0.2, 0.5), at(0.3, 3.5)}, {at(0.4, 3.5), at(0.5, 0.5)}, {at(0.6, 3.5), at(7.5, 0.5)}};
+  const std::vector<double> emitted{1.0, 1.0, 2.0}, weighted_geometry{0.5, 0.5, 0.5};
+  const std::vector<std::uint32_t> backtrack{1, no_cluster, no_cluster};  // b drew from a (or a from b)
+  Clustering<double> clustering;
+  clustering.build(VoxelGrid<double>(1.0), segments);
+  REQUIRE(clustering.cluster_of_y(0) == clustering.cluster_of_x(1));
+  REQUIRE(clustering.cluster_of_y(1) == clustering.cluster_of_x(0));
+  const double kernel = clustering.clusters()[clustering.cluster_of_y(0)].kernel;
+  auto link = [&](std::uint32_t, std::uint32_t) { return 100.0 / kernel; };
+  const std::vector<std::uint8_t> factorised(clustering.clusters().size(), 1);
+  const std::vector<double> scaled(3, 100.0 / kernel);
+  for (const int k : {1, 2, 5, 9}) {
+    std::vector<double> general, fast, partners, scratch;
+    propagate(PropagationInputs<double, decltype(link)>{clustering, emitted, weighted_geometry, link, {}, {}, {}, backtrack}, k, general,
+              scratch);
+    propagate(PropagationInputs<double, decltype(link)>{clustering, emitted, weighted_geometry, link, scaled, factorised, {}, backtrack},
+              k, fast, scratch);
+    // Either partner may name the other.
+    propagate(PropagationInputs<double, decltype(link)>{clustering, emitted, weighted_geometry, link, {}, {}, {},
+                                                        std::vector<std::uint32_t>{no_cluster, 0, no_cluster}},
+              k, partners, scratch);
+    // a -> b ends there (b's one successor is a), a -> t ends at t; b -> a goes on to t only.
+    const double a = 1.0 + 50.0 * 1.0 + 50.0 * 2.0;
+    const double b = 1.0 + 50.0 * (1.0 + (k >= 2 ? 50.0 * 2.0 : 0.0));
+    for (const auto* r : {&general, &fast, &partners}) {
+      CHECK((*r)[0] == Approx(a));
+      CHECK((*r)[1] == Approx(b));
+      CHECK((*r)[2] == 2.0);
+    }
+    CHECK(recursive_mmis_radiance<double>(clustering, emitted, weighted_geometry, link, 0, k, backtrack) == Approx(a));
+    CHECK(recursive_mmis_radiance<double>(clustering, emitted, weighted_geometry, link, 1, k, backtrack) == Approx(b));
   }
 }
 
@@ -178,6 +253,10 @@ TEST_CASE("propagation rejects bad input", "[propagation]") {
   CHECK_THROWS_AS(propagate(ok, 0, r, s), std::invalid_argument);
   propagate(ok, 3, r, s);  // a segment in no cluster keeps its emitted radiance
   CHECK(r[0] == 1.0);
+  // Backtrack partners: one per segment or none.
+  const std::vector<std::uint32_t> two_partners{no_cluster, no_cluster};
+  const PropagationInputs<double, decltype(link)> mismatched{clustering, emitted, emitted, link, {}, {}, {}, two_partners};
+  CHECK_THROWS_AS(propagate(mismatched, 1, r, s), std::invalid_argument);
 
   // A workspace prepared for other inputs (or none) is rejected.
   Pcg32 rng(3, 1);
@@ -200,17 +279,20 @@ TEST_CASE("propagation rejects bad input", "[propagation]") {
 namespace {
 
 /// The recursion of recursive_mmis_radiance with a budget of segments left after s: a start
-/// s' of p(s') pieces joins only if they fit (propagation/segment_budget.hpp).
+/// s' of p(s') pieces joins only if they fit (propagation/segment_budget.hpp); s was reached
+/// from `from` (no_cluster: none), and no chain goes back to it where the two are partners.
 double budgeted_radiance(const Clustering<double>& clustering, const RandomPool& pool, const std::vector<std::uint16_t>& pieces,
-                         std::uint32_t s, int budget) {
+                         const std::vector<std::uint32_t>& backtrack, std::uint32_t s, int budget, std::uint32_t from = no_cluster) {
   double value = pool.emitted[s];
   const std::uint32_t c = clustering.cluster_of_y(s);
   if (c == no_cluster) return value;
   const Cluster<double>& cluster = clustering.clusters()[c];
+  const bool partners = from != no_cluster && !backtrack.empty() && (backtrack[s] == from || backtrack[from] == s);
   double sum = 0;
   for (const std::uint32_t sp : clustering.starting_segments(c)) {
-    if (sp == s || budget - int(pieces[sp]) < 0) continue;
-    sum += pool.link_table[s * pool.n + sp] * pool.weighted_geometry[sp] * budgeted_radiance(clustering, pool, pieces, sp, budget - pieces[sp]);
+    if (sp == s || budget - int(pieces[sp]) < 0 || (partners && sp == from)) continue;
+    sum += pool.link_table[s * pool.n + sp] * pool.weighted_geometry[sp] *
+           budgeted_radiance(clustering, pool, pieces, backtrack, sp, budget - pieces[sp], s);
   }
   return value + sum * cluster.kernel;
 }
@@ -219,20 +301,24 @@ double budgeted_radiance(const Clustering<double>& clustering, const RandomPool&
 
 TEST_CASE("chains of several pieces count as that many segments, general or factorised", "[propagation]") {
   Pcg32 rng(77, 2);
-  int compared = 0, cut = 0;
+  int compared = 0, cut = 0, backtracked = 0;
   for (int trial = 0; trial < 400; ++trial) {
     const RandomPool pool = make_pool(rng);
     std::vector<std::uint16_t> pieces(pool.n);
     for (auto& p : pieces) p = std::uint16_t(rng.uniform<double>() < 0.6 ? 1 : 2 + rng.next_u32() % 3);
     Clustering<double> clustering;
     clustering.build(VoxelGrid<double>(1.0, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)), pool.segments);
+    // Round trips with chains: the part taken out is the one at the budget the start was read at.
+    const std::vector<std::uint32_t> backtrack =
+        trial % 2 ? random_backtracks(rng, clustering, pool.n) : std::vector<std::uint32_t>{};
     auto link = [&](std::uint32_t s, std::uint32_t sp) { return pool.link_table[s * pool.n + sp]; };
     auto diffuse_link = [&](std::uint32_t s, std::uint32_t) { return pool.diffuse[s]; };
     const std::vector<std::uint8_t> all(clustering.group_count(), 1);
     const int iterations = 1 + int(rng.next_u32() % 5);
     std::vector<double> radiance, factorised, scratch;
     PropagationWorkspace<double> workspace;
-    propagate(PropagationInputs<double, decltype(link)>{clustering, pool.emitted, pool.weighted_geometry, link, {}, {}, pieces},
+    propagate(PropagationInputs<double, decltype(link)>{clustering, pool.emitted, pool.weighted_geometry, link, {}, {}, pieces,
+                                                        backtrack},
               iterations, radiance, workspace);
     // The lagged values it reports: at least one ring of p per ending slot of a chain of p > 1
     // and a watch per start and ending slot; none without chains.
@@ -246,7 +332,7 @@ TEST_CASE("chains of several pieces count as that many segments, general or fact
               unchained, workspace);
     CHECK(workspace.lagged_bytes == 0);
     propagate(PropagationInputs<double, decltype(diffuse_link)>{clustering, pool.emitted, pool.weighted_geometry, diffuse_link,
-                                                                pool.diffuse, all, pieces},
+                                                                pool.diffuse, all, pieces, backtrack},
               iterations, factorised, scratch);
     RandomPool diffuse_pool = pool;
     for (std::size_t s = 0; s < pool.n; ++s)
@@ -254,8 +340,9 @@ TEST_CASE("chains of several pieces count as that many segments, general or fact
     for (std::uint32_t s = 0; s < pool.n; ++s) {
       // Paths of at most iterations + 1 segments, s's own pieces included.
       const int budget = iterations + 1 - int(pieces[s]);
-      const double reference = budget < 0 ? 0.0 : budgeted_radiance(clustering, pool, pieces, s, budget);
-      const double reference_diffuse = budget < 0 ? 0.0 : budgeted_radiance(clustering, diffuse_pool, pieces, s, budget);
+      const double reference = budget < 0 ? 0.0 : budgeted_radiance(clustering, pool, pieces, backtrack, s, budget);
+      const double reference_diffuse = budget < 0 ? 0.0 : budgeted_radiance(clustering, diffuse_pool, pieces, backtrack, s, budget);
+      if (budget >= 0 && reference != budgeted_radiance(clustering, pool, pieces, {}, s, budget)) ++backtracked;
       CHECK(radiance[s] == Approx(reference).epsilon(1e-12).margin(1e-300));
       CHECK(factorised[s] == Approx(reference_diffuse).epsilon(1e-12).margin(1e-300));
       ++compared;
@@ -266,4 +353,5 @@ TEST_CASE("chains of several pieces count as that many segments, general or fact
   }
   CHECK(compared > 2000);
   CHECK(cut > 300);  // the budget changes many values: chains are not counted as one segment
+  CHECK(backtracked > 50);
 }

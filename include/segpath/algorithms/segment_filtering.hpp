@@ -205,10 +205,10 @@ class SegmentFiltering {
       } else {
         filtering::propagate_pool(ctx, clustering, iterations, radiance, weighted_geometry, parallel_for,
                                   filtering::PoolGeometry::release);
-        // Propagation: diffuse when factorising, the transfer and the workspace.
+        // Propagation: diffuse when factorising, the transfer, the workspace and the backtrack partners.
         propagation_bytes = (options_.factorise ? sizeof(S) : 0) + filtering::Transfer<Scn>::bytes_per_segment() +
-                            PairTable<S>::bytes_per_ending_slot + PropagationWorkspace<S>::bytes_per_segment;
-        after_release = PropagationWorkspace<S>::bytes_per_segment + stats.lagged_bytes / n;
+                            PairTable<S>::bytes_per_ending_slot + PropagationWorkspace<S>::bytes_per_segment + sizeof(std::uint32_t);
+        after_release = PropagationWorkspace<S>::bytes_per_segment + sizeof(std::uint32_t) + stats.lagged_bytes / n;
       }
     } else {
       DiskJunctions<T> junctions;
@@ -224,7 +224,7 @@ class SegmentFiltering {
         propagation_bytes = filtering::conditioned_bytes_per_segment<S> + bridge_bytes(side);
       } else {
         filtering::propagate_pool(ctx, junctions, iterations, radiance, weighted_geometry, parallel_for);
-        propagation_bytes = PropagationWorkspace<S>::bytes_per_segment;
+        propagation_bytes = PropagationWorkspace<S>::bytes_per_segment + sizeof(std::uint32_t);
       }
     }
     lap(stats.propagation_seconds);

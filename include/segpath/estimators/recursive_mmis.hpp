@@ -3,7 +3,8 @@
 // cluster of y_s), each weighted by its MMIS weight w(s') = 1 / sum over all technique samples
 // of p(s' | t):
 //   <L(s)> = L_e(s) + K sum_{s' != s} f_r(s, s') G(s') w(s') <L(s')>,  to a depth of `depth` links
-// (a segment whose two ends share a cluster does not join itself: see propagation/propagate.hpp).
+// (a segment whose two ends share a cluster does not join itself, and a chain goes no round trip
+// a -> b -> a between backtrack partners: see propagation/propagate.hpp).
 // Exponential in depth: the reference that propagation (propagation/propagate.hpp) must match.
 #pragma once
 
@@ -15,24 +16,38 @@
 
 namespace segpath {
 
-/// <L(s)> of (N39) truncated after `depth` links (depth 0: L_e(s)). `link(s, s')` is
-/// f_r(s, s') (N20); `weighted_geometry[s']` is G(s') w(s').
+namespace detail {
+/// recursive_mmis_radiance from s, reached from `from` (no_cluster: s starts the chain).
 template <Spectrum S, class Link>
-[[nodiscard]] S recursive_mmis_radiance(const Clustering<spectrum_scalar_t<S>>& clustering, std::span<const S> emitted,
-                                        std::span<const spectrum_scalar_t<S>> weighted_geometry, const Link& link,
-                                        std::uint32_t s, int depth) {
+[[nodiscard]] S recursive_mmis_radiance_from(const Clustering<spectrum_scalar_t<S>>& clustering, std::span<const S> emitted,
+                                             std::span<const spectrum_scalar_t<S>> weighted_geometry, const Link& link,
+                                             std::span<const std::uint32_t> backtrack, std::uint32_t s, std::uint32_t from,
+                                             int depth) {
   using T = spectrum_scalar_t<S>;
   S value = emitted[s];
   const std::uint32_t c = clustering.cluster_of_y(s);
   if (depth == 0 || c == no_cluster) return value;
   const Cluster<T>& cluster = clustering.clusters()[c];
+  // from -> s -> from is a round trip where the two are partners.
+  const bool partners = from != no_cluster && !backtrack.empty() && (backtrack[s] == from || backtrack[from] == s);
   S sum(T(0));
   for (const std::uint32_t sp : clustering.starting_segments(c)) {
-    if (sp == s) continue;
-    sum += link(s, sp) * (recursive_mmis_radiance(clustering, emitted, weighted_geometry, link, sp, depth - 1) *
+    if (sp == s || (partners && sp == from)) continue;
+    sum += link(s, sp) * (recursive_mmis_radiance_from(clustering, emitted, weighted_geometry, link, backtrack, sp, s, depth - 1) *
                           weighted_geometry[sp]);
   }
   return value + sum * cluster.kernel;
+}
+}  // namespace detail
+
+/// <L(s)> of (N39) truncated after `depth` links (depth 0: L_e(s)). `link(s, s')` is
+/// f_r(s, s') (N20); `weighted_geometry[s']` is G(s') w(s'); `backtrack` as
+/// PropagationInputs::backtrack (empty: no round trips are left out).
+template <Spectrum S, class Link>
+[[nodiscard]] S recursive_mmis_radiance(const Clustering<spectrum_scalar_t<S>>& clustering, std::span<const S> emitted,
+                                        std::span<const spectrum_scalar_t<S>> weighted_geometry, const Link& link,
+                                        std::uint32_t s, int depth, std::span<const std::uint32_t> backtrack = {}) {
+  return detail::recursive_mmis_radiance_from(clustering, emitted, weighted_geometry, link, backtrack, s, no_cluster, depth);
 }
 
 /// The pixel estimate of (N40): sum over the sensor segments s of W G(s) w(s) <L(s)>; the caller

@@ -121,7 +121,7 @@ struct ConditionedInputs {
   std::span<const T> bridge_target_term = {}, bridge_density = {};
   /// backtrack[s] (empty: none; no_cluster: none for s): a segment b that no chain goes a round
   /// trip s -> b -> s or b -> s -> b with (propagation/round_trips.hpp); in segment filtering the
-  /// one that drew s or that s drew. Not between segments of several pieces (read lagged).
+  /// one that drew s or that s drew; through chains of several pieces too (read lagged).
   std::span<const std::uint32_t> backtrack = {};
 };
 
@@ -381,6 +381,11 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         return joins(i, j) ? junction(i, j, support.kernel(g)) : Junction{S(T(0)), {}, detail::no_junction};
       },
       parallel_for);
+  // Budgets (segment_budget.hpp): sweep k computes A^(k + 1); a start of p pieces reads
+  // A^(k + 1 - p), which lagged_w (W) and lagged_u (U, forceable starts only) keep for p > 1
+  // (as for the results of chains). A start's source is its own segment's ending slot, and a
+  // segment has one start record at most, so one watch per slot serves both.
+  const int depth = detail::max_pieces(in.pieces, n);
   // Round trips between backtrack partners, taken out after each sweep (propagation/round_trips.hpp).
   detail::RoundTrips<S> round_trips;
   round_trips.build(
@@ -398,12 +403,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         }
         return junction(i, j, T(support.kernel(g)));
       },
-      record, [&](std::uint32_t s) { return in.pieces.empty() || in.pieces[s] == 1; });  // no lagged reads
-  // Budgets (segment_budget.hpp): sweep k computes A^(k + 1); a start of p pieces reads
-  // A^(k + 1 - p), which lagged_w (W) and lagged_u (U, forceable starts only) keep for p > 1
-  // (as for the results of chains). A start's source is its own segment's ending slot, and a
-  // segment has one start record at most, so one watch per slot serves both.
-  const int depth = detail::max_pieces(in.pieces, n);
+      record, [&](std::uint32_t j) { return int(start[record(j)].pieces); }, depth);
   // The watches of starts come first, in record order, so that the gather reads their rings in
   // order; then those of slots that no start reads (their results only). Every watch keeps W;
   // U is kept only for the starts a junction can force, in lagged_u (watch u_watch[record_u]).
@@ -556,7 +556,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
         }
       }
     });
-    round_trips.take_out(starting_w, starting_u, record_u, current_w, current_u, slot_u);
+    round_trips.take_out(k, starting_w, starting_u, record_u, current_w, current_u, slot_u);
     if (depth > 1) {
       lagged_w.keep(k + 1, std::span<const Pair>(current_w), parallel_for);
       lagged_u.keep_each(k + 1, [&](std::uint32_t i) -> const Pair& { return current_u[slot_u[i]]; }, parallel_for);

@@ -17,7 +17,9 @@
 // the kernel path integral over chains of distinct samples only. The self-junction of a segment
 // whose two ends share a cluster (a short segment, e.g. floor -> mirror sphere -> floor) has a
 // gain K f_r G w that can exceed 1 near a glossy lobe's peak, and the Jacobi sweeps then raise
-// it to the k-th power: one such segment made a 700x firefly on Cornell box 1.
+// it to the k-th power: one such segment made a 700x firefly on Cornell box 1. Nor does a chain
+// go a -> b -> a between backtrack partners (PropagationInputs::backtrack, taken out after each
+// sweep as propagation/round_trips.hpp derives).
 #pragma once
 
 #include "segpath/core/parallel.hpp"
@@ -25,6 +27,7 @@
 #include "segpath/propagation/clustering.hpp"
 #include "segpath/propagation/disk_junctions.hpp"
 #include "segpath/propagation/junction_support.hpp"
+#include "segpath/propagation/round_trips.hpp"
 #include "segpath/propagation/segment_budget.hpp"
 
 #include <algorithm>
@@ -49,7 +52,10 @@ namespace segpath {
 ///  - diffuse[s] and factorised[g] (J::factorisable supports only): where group g is
 ///    factorised, f_r(s, s') = diffuse[s] for every s ending and s' starting in it (a
 ///    Lambertian end, every s' leaving its front side), so its sum is computed once per group:
-///    O(n + m) instead of O(n m).
+///    O(n + m) instead of O(n m);
+///  - backtrack[s] (empty: none; no_cluster: none for s): a segment b that no chain goes a round
+///    trip s -> b -> s or b -> s -> b with (propagation/round_trips.hpp; in segment filtering
+///    the segment that drew s, or the one s drew).
 template <Spectrum S, class Link, JunctionSupport J = Clustering<spectrum_scalar_t<S>>>
 struct PropagationInputs {
   using T = spectrum_scalar_t<S>;
@@ -63,6 +69,7 @@ struct PropagationInputs {
   /// p(s): the segments s stands for, more than 1 for a chain through delta bounces; empty:
   /// all 1. Paths are limited by their segments, not their pooled ones (segment_budget.hpp).
   std::span<const std::uint16_t> pieces = {};
+  std::span<const std::uint32_t> backtrack = {};
 };
 
 /// What propagate() keeps besides its result, reusable across calls: the inputs in slot order
@@ -124,6 +131,8 @@ void prepare_propagation(const PropagationInputs<S, Link, J>& in, PropagationWor
   const std::size_t n = in.emitted.size();
   if (in.weighted_geometry.size() != n)
     throw std::invalid_argument("segpath::propagate: emitted and weighted_geometry differ in size");
+  if (!(in.backtrack.empty() || in.backtrack.size() == n))
+    throw std::invalid_argument("segpath::propagate: backtrack needs one value per segment, or none");
   detail::check_support(in.support, n, in.factorised.size(), in.diffuse.size(), "segpath::propagate");
   const bool has_factorisation = !in.factorised.empty();
   const StartRecords<J> record(in.support);
@@ -189,6 +198,24 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
     lagged.allocate();
   }
   workspace.lagged_bytes = lagged.bytes() + (start_watch.capacity() + end_watch.capacity()) * sizeof(std::uint32_t);
+  // Round trips between backtrack partners, taken out after each sweep (propagation/round_trips.hpp).
+  detail::RadianceRoundTrips<S> round_trips;
+  round_trips.build(
+      support, in.backtrack,
+      [&](std::uint32_t i, std::uint32_t j) { return w.starting_weight[record(j)] != T(0) && w.source[record(j)] != i; },
+      [&](std::size_t g, std::uint32_t i, std::uint32_t j) -> S {
+        const T kernel = support.kernel(g);
+        if constexpr (J::factorisable) {
+          if (has_factorisation && in.factorised[g]) return w.ending_diffuse[i] * kernel;
+        }
+        if constexpr (by_slot) {
+          return in.link(ending_segment[i], starting_segment[j], i, j) * kernel;
+        } else {
+          return in.link(ending_segment[i], starting_segment[j]) * kernel;
+        }
+      },
+      [&](std::uint32_t j) { return std::uint32_t(record(j)); }, std::span<const T>(w.starting_weight),
+      [&](std::uint32_t j) { return in.pieces.empty() ? 1 : int(in.pieces[starting_segment[j]]); }, depth);
   for (int k = 0; k < iterations; ++k) {
     if (depth > 1) {
       const int budget = k + 1;
@@ -247,6 +274,7 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
         w.out[i] = w.ending_emitted[i] + sum * kernel;
       }
     });
+    round_trips.take_out(k, value, std::span<S>(w.out));
     if (depth > 1) lagged.keep(k + 1, std::span<const S>(w.out), parallel_for);
   }
   // Segments whose y end is in no group (a light at infinity, a point light) keep L_e.

@@ -55,6 +55,21 @@ void weighted_geometry_of(const Pool<T, S>& pool, std::vector<T>& weighted_geome
     weighted_geometry[i] = pool.density[i] > T(0) ? pool.geometry[i] / pool.density[i] : T(0);
 }
 
+/// Per segment, the partner no chain goes a round trip with (PropagationInputs::backtrack,
+/// ConditionedInputs::backtrack): a light segment's is its light predecessor, a camera
+/// successor's (or next-event segment's) its parent; no_cluster elsewhere.
+template <Real T, Spectrum S, ParallelFor P>
+void backtrack_partners(const Pool<T, S>& pool, std::vector<std::uint32_t>& backtrack, const P& parallel_for) {
+  backtrack.assign(pool.size(), no_cluster);
+  parallel_for(pool.size(), [&](std::size_t i) {
+    const std::uint32_t t = pool.parent[i];
+    if (t >= pool.size()) return;
+    // One light predecessor per parent, so no two i write the same entry.
+    if (pool.flags[i] & camera_born) backtrack[i] = t;
+    else if (!(pool.flags[i] & not_light_born)) backtrack[t] = std::uint32_t(i);
+  });
+}
+
 /// Step 5: `iterations` Jacobi iterations of the paper's propagation over the pool's support.
 /// Voxel clusters read the transfer from slot-ordered copies and a pair table built once per
 /// pool, with the factorised O(n + m) sums where the options allow and the cluster qualifies;
@@ -68,6 +83,8 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
   const Scn& scene = ctx.scene;
   const auto& pool = ctx.pool;
   weighted_geometry_of(pool, weighted_geometry);
+  std::vector<std::uint32_t> backtrack;
+  backtrack_partners(pool, backtrack, parallel_for);
   PropagationWorkspace<S> workspace;
   if constexpr (J::factorisable) {
     std::vector<std::uint8_t> factorised;
@@ -84,7 +101,7 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
     // From here the link reads the transfer's copies and the table only.
     if (geometry == PoolGeometry::release) ctx.pool.release_geometry();
     propagate(PropagationInputs<S, CachedTransferLink<Scn>, J>{support, pool.emitted, weighted_geometry, cached, diffuse, factorised,
-                                                               pool.pieces},
+                                                               pool.pieces, backtrack},
               iterations, radiance, workspace, parallel_for);
     ctx.stats.lagged_bytes = workspace.lagged_bytes;
   } else {
@@ -93,26 +110,10 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
       const S f = bsdf.eval(BsdfQuery<T>{pool.segments[s].y, -pool.last_direction[s], pool.first_direction[sp], Transport::radiance});
       return f * pool.chain[s];
     };
-    propagate(PropagationInputs<S, decltype(link), J>{support, pool.emitted, weighted_geometry, link, {}, {}, pool.pieces}, iterations,
-              radiance,
-              workspace, parallel_for);
+    propagate(PropagationInputs<S, decltype(link), J>{support, pool.emitted, weighted_geometry, link, {}, {}, pool.pieces, backtrack},
+              iterations, radiance, workspace, parallel_for);
     ctx.stats.lagged_bytes = workspace.lagged_bytes;
   }
-}
-
-/// Per segment, the partner no chain of the path-conditioned propagation goes a round trip with
-/// (ConditionedInputs::backtrack): a light segment's is its light predecessor, a camera
-/// successor's (or next-event segment's) its parent; no_cluster elsewhere.
-template <Real T, Spectrum S, ParallelFor P>
-void backtrack_partners(const Pool<T, S>& pool, std::vector<std::uint32_t>& backtrack, const P& parallel_for) {
-  backtrack.assign(pool.size(), no_cluster);
-  parallel_for(pool.size(), [&](std::size_t i) {
-    const std::uint32_t t = pool.parent[i];
-    if (t >= pool.size()) return;
-    // One light predecessor per parent, so no two i write the same entry.
-    if (pool.flags[i] & camera_born) backtrack[i] = t;
-    else if (!(pool.flags[i] & not_light_born)) backtrack[t] = std::uint32_t(i);
-  });
 }
 
 /// Step 5 with the path-conditioned weighting; returns the weighted L per segment and G
