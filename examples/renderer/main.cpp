@@ -241,7 +241,9 @@ PeakEstimate estimated_peak(const Options& o, const renderer::MethodOptions& mo,
   bytes += estimate.pool;
   const double cache_budget = mo.transfer_cache_mib ? double(*mo.transfer_cache_mib) * (1 << 20)
                                                     : double(segpath::FilteringOptions<float>{}.transfer_cache_bytes);
-  const double cache_growth = f->segments > 0 ? segments / (double(f->segments) * scale) : 1.0;
+  // The pair table grows with the segments, the light segments by light_scale.
+  const double cache_growth =
+      f->segments > 0 ? 1.0 + (light_scale - 1) * double(f->light_segments) / double(f->segments) : 1.0;
   estimate.cache = std::min(cache_budget, double(f->transfer_cache_bytes) * scale * cache_growth / double(mo.passes));
   return estimate;
 }
