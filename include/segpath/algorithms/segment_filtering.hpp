@@ -27,6 +27,7 @@
 #include "segpath/algorithms/filtering/technique_set.hpp"
 #include "segpath/algorithms/filtering/techniques.hpp"
 #include "segpath/core/drop.hpp"
+#include "segpath/core/format.hpp"
 #include "segpath/core/framebuffer.hpp"
 #include "segpath/core/parallel.hpp"
 
@@ -95,7 +96,7 @@ class SegmentFiltering {
                                   std::to_string(options_.pixel_passes) + " pixel passes");
     if (cell && !(*cell > T(0) && std::isfinite(*cell)))
       throw std::invalid_argument("segpath::SegmentFiltering: a context's voxel size must be finite and > 0, got " +
-                                  std::to_string(double(*cell)));
+                                  format_number(double(*cell)));
     Context ctx{scene, options_, iteration + 1};
     ctx.pass = pass;
     ctx.passes = options_.pixel_passes;

@@ -4,16 +4,19 @@
 // weighted by multi-technique MIS (N36) through Georgiev et al. 2012's recursive quantities.
 #pragma once
 
+#include "segpath/algorithms/vcm/options.hpp"
+#include "segpath/algorithms/vcm/weights.hpp"
 #include "segpath/concepts/bsdf.hpp"
 #include "segpath/concepts/scene.hpp"
-#include "segpath/integrand/contribution.hpp"
 #include "segpath/core/block_list.hpp"
 #include "segpath/core/drop.hpp"
+#include "segpath/core/format.hpp"
 #include "segpath/core/framebuffer.hpp"
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/rng.hpp"
 #include "segpath/core/roulette.hpp"
 #include "segpath/core/scratch_vector.hpp"
+#include "segpath/integrand/contribution.hpp"
 #include "segpath/kernels/dirac.hpp"
 #include "segpath/kernels/hash_grid.hpp"
 #include "segpath/kernels/progressive_radius.hpp"
@@ -24,14 +27,11 @@
 #include "segpath/samplers/sensor_start.hpp"
 #include "segpath/sensors/pixel_footprint.hpp"
 #include "segpath/weights/mis.hpp"
-#include "segpath/algorithms/vcm/options.hpp"
-#include "segpath/algorithms/vcm/weights.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <cstdio>
 #include <limits>
 #include <numbers>
 #include <span>
@@ -158,11 +158,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     // heuristic(eta) <= M and heuristic(1 / eta) <= M: eta in [1 / m, m], m = M or sqrt(M).
     const double m = options_.heuristic == MisHeuristic::power ? std::sqrt(double(max_mis_factor)) : double(max_mis_factor);
     const double per_radius2 = std::numbers::pi * double(it.light_paths);
-    const auto number = [](double x) {
-      char text[32];
-      std::snprintf(text, sizeof text, "%.3g", x);
-      return std::string(text);
-    };
+    const auto number = [](double x) { return format_number(x, 3); };
     throw std::invalid_argument("segpath::VertexConnectionMerging: merge radius " + number(double(it.radius)) + " with " +
                                 std::to_string(std::uint64_t(it.light_paths)) + " light paths puts VCM's MIS weights out of the scalar type's "
                                 "range; use a radius from " + number(std::sqrt(1 / (m * per_radius2))) + " to " +
@@ -189,7 +185,7 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     if (options_.mode == VcmMode::bdpt) radius = T(1);  // no merging: the radius enters no weight
     if (!(radius > T(0)) || !std::isfinite(radius))
       throw std::invalid_argument("segpath::VertexConnectionMerging: radius must be finite and > 0, got " +
-                                  std::to_string(radius));
+                                  format_number(double(radius)));
     const std::uint32_t n = light_path_count(pixels);
     const std::size_t stride = options_.max_length - 1;
     if (double(n) * double(stride) >= double(std::numeric_limits<std::uint32_t>::max()))
@@ -381,10 +377,10 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     if (o.max_length < 1) fail("max_length must be >= 1, got 0");
     if (!(o.initial_radius >= 0) || !std::isfinite(o.initial_radius) || !std::isfinite(T(o.initial_radius)) ||
         (o.initial_radius > 0 && !(T(o.initial_radius) > T(0))))
-      fail("initial_radius must be finite and >= 0 (0: automatic), got " + std::to_string(o.initial_radius));
-    if (!(o.alpha > 0 && o.alpha < 1)) fail("alpha must lie in (0, 1), got " + std::to_string(o.alpha));
+      fail("initial_radius must be finite and >= 0 (0: automatic), got " + format_number(double(o.initial_radius)));
+    if (!(o.alpha > 0 && o.alpha < 1)) fail("alpha must lie in (0, 1), got " + format_number(double(o.alpha)));
     if (!(o.light_path_factor > 0) || !std::isfinite(o.light_path_factor))
-      fail("light_path_factor must be finite and > 0, got " + std::to_string(o.light_path_factor));
+      fail("light_path_factor must be finite and > 0, got " + format_number(double(o.light_path_factor)));
     return o;
   }
 

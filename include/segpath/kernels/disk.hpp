@@ -3,6 +3,7 @@
 #pragma once
 
 #include "segpath/concepts/kernel.hpp"
+#include "segpath/core/format.hpp"
 #include "segpath/core/frame.hpp"
 #include "segpath/core/in_place_optional.hpp"
 
@@ -25,11 +26,11 @@ class DiskKernel {
       : radius_(radius), min_normal_cosine_(min_normal_cosine) {
     if (!(radius > T(0)) || !std::isfinite(radius))
       throw std::invalid_argument("segpath::DiskKernel: radius must be finite and > 0, got " +
-                                  std::to_string(radius));
+                                  format_number(double(radius)));
     if (!(min_normal_cosine >= T(-1) && min_normal_cosine <= T(1)))
       throw std::invalid_argument(
           "segpath::DiskKernel: min_normal_cosine must lie in [-1, 1], got " +
-          std::to_string(min_normal_cosine));
+          format_number(double(min_normal_cosine)));
     inv_area_ = T(1) / (pi<T> * radius * radius);
   }
 

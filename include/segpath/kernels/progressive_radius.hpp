@@ -4,6 +4,7 @@
 // is the shrinking one implemented here.)
 #pragma once
 
+#include "segpath/core/format.hpp"
 #include "segpath/core/vec.hpp"
 
 #include <cmath>
@@ -20,10 +21,10 @@ class ProgressiveRadius {
   ProgressiveRadius(T initial_radius, T alpha) : initial_(initial_radius), alpha_(alpha) {
     if (!(initial_radius > T(0)) || !std::isfinite(initial_radius))
       throw std::invalid_argument("segpath::ProgressiveRadius: radius must be finite and > 0, got " +
-                                  std::to_string(initial_radius));
+                                  format_number(double(initial_radius)));
     if (!(alpha > T(0) && alpha < T(1)))
       throw std::invalid_argument("segpath::ProgressiveRadius: alpha must lie in (0, 1), got " +
-                                  std::to_string(alpha));
+                                  format_number(double(alpha)));
   }
 
   /// The radius of iteration i >= 1 (iteration 1 uses the initial radius).
@@ -54,7 +55,7 @@ class KernelSchedule {
   [[nodiscard]] static KernelSchedule fixed(T size) {
     if (!(size > T(0)) || !std::isfinite(size))
       throw std::invalid_argument("segpath::KernelSchedule: a fixed kernel size must be finite and > 0, got " +
-                                  std::to_string(size));
+                                  format_number(double(size)));
     KernelSchedule k;
     k.initial_ = size;
     k.alpha_ = T(1);

@@ -5,6 +5,7 @@
 // pool are grouped by voxel in propagation/clustering.hpp.
 #pragma once
 
+#include "segpath/core/format.hpp"
 #include "segpath/core/rng.hpp"
 #include "segpath/core/surface_point.hpp"
 #include "segpath/core/vec.hpp"
@@ -45,7 +46,7 @@ class VoxelGrid {
   /// `cell_size` > 0 and finite; `jitter` in [0, 1)^3 shifts the grid by jitter * cell_size.
   explicit VoxelGrid(T cell_size, const Vec3<T>& jitter = Vec3<T>(0)) : cell_size_(cell_size), offset_(jitter * cell_size) {
     if (!(cell_size > T(0)) || !std::isfinite(cell_size))
-      throw std::invalid_argument("segpath::VoxelGrid: cell size must be finite and > 0, got " + std::to_string(cell_size));
+      throw std::invalid_argument("segpath::VoxelGrid: cell size must be finite and > 0, got " + format_number(double(cell_size)));
     if (!(jitter.x >= T(0) && jitter.x < T(1) && jitter.y >= T(0) && jitter.y < T(1) && jitter.z >= T(0) && jitter.z < T(1)))
       throw std::invalid_argument("segpath::VoxelGrid: jitter must lie in [0, 1)^3");
     inv_cell_size_ = T(1) / cell_size;

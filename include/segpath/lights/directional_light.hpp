@@ -9,6 +9,7 @@
 #include <string>
 
 #include "segpath/concepts/emitter.hpp"
+#include "segpath/core/format.hpp"
 #include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 
@@ -48,7 +49,7 @@ struct EmissionDisk {
     if (!(radius > T(0)) || !std::isfinite(radius) || !std::isfinite(T(1) / (radius * radius)))
       throw std::invalid_argument(
           std::string(who) + ": the scene's bounding sphere radius must be finite and > 0, got " +
-          std::to_string(radius));
+          format_number(double(radius)));
     return EmissionDisk{centre, radius};
   }
 };
@@ -109,7 +110,7 @@ class DirectionalLight {
       throw std::invalid_argument(
           "segpath::DirectionalLight: irradiance must be finite and >= 0 in every channel, got "
           "max " +
-          std::to_string(max_component(irradiance)));
+          format_number(double(max_component(irradiance))));
   }
 
   /// The unit direction of travel d.

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "segpath/concepts/emitter.hpp"
+#include "segpath/core/format.hpp"
 #include "segpath/core/in_place_optional.hpp"
 #include "segpath/core/warp.hpp"
 
@@ -157,7 +158,7 @@ class TriangleLights {
     if (!is_finite(radiance) || max_component(radiance * Scalar(-1)) > Scalar(0))
       throw std::invalid_argument("segpath::TriangleLights: " + which +
                                   "radiance must be finite and >= 0 in every channel, got max " +
-                                  std::to_string(max_component(radiance)));
+                                  format_number(double(max_component(radiance))));
     return radiance;
   }
 
@@ -203,7 +204,7 @@ class TriangleLights {
         if (e.area > Scalar(0) && std::abs(glm::dot(e.normal, winding)) < Scalar(1) - Scalar(1e-3))
           throw std::invalid_argument(
               which + ": the given normal is not perpendicular to the triangle (|cos| = " +
-              std::to_string(std::abs(glm::dot(e.normal, winding))) + ")");
+              format_number(double(std::abs(glm::dot(e.normal, winding)))) + ")");
       }
       total += static_cast<double>(e.area);
       cdf_.push_back(static_cast<Scalar>(total));
@@ -215,7 +216,7 @@ class TriangleLights {
     if (!(total_area_ > Scalar(0)) || !std::isfinite(total_area_))
       throw std::invalid_argument(
           "segpath::TriangleLights: the total area must be finite and > 0, got " +
-          std::to_string(total));
+          format_number(double(total)));
     inv_total_area_ = Scalar(1) / total_area_;
     std::sort(by_id_.begin(), by_id_.end());
     for (std::size_t i = 1; i < by_id_.size(); ++i)

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "segpath/concepts/bsdf.hpp"
+#include "segpath/core/format.hpp"
 #include "segpath/core/in_place_optional.hpp"
 #include "segpath/materials/scattering.hpp"
 
@@ -43,7 +44,7 @@ class Dielectric {
   explicit Dielectric(Scalar eta) : eta_(eta) {
     if (!std::isfinite(eta) || !(eta > Scalar(0)))
       throw std::invalid_argument("segpath::Dielectric: eta must be finite and > 0, got " +
-                                  std::to_string(eta));
+                                  format_number(double(eta)));
   }
 
   [[nodiscard]] Scalar eta() const noexcept { return eta_; }

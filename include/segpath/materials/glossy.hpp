@@ -4,6 +4,7 @@
 
 #include <stdexcept>
 
+#include "segpath/core/format.hpp"
 #include "segpath/materials/lambertian.hpp"
 #include "segpath/materials/phong.hpp"
 
@@ -35,7 +36,7 @@ class Glossy {
       throw std::invalid_argument(
           "segpath::Glossy: the lobes' albedo weights (averages of the coefficients) must be "
           ">= 0, got " +
-          std::to_string(w_d) + " and " + std::to_string(w_p));
+          format_number(double(w_d)) + " and " + format_number(double(w_p)));
     const Scalar total = w_d + w_p;
     diffuse_probability_ = total > Scalar(0) ? w_d / total : Scalar(0);
     phong_probability_ = total > Scalar(0) ? w_p / total : Scalar(0);

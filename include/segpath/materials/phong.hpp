@@ -9,6 +9,7 @@
 #include <string>
 
 #include "segpath/concepts/bsdf.hpp"
+#include "segpath/core/format.hpp"
 #include "segpath/core/frame.hpp"
 #include "segpath/core/in_place_optional.hpp"
 #include "segpath/materials/scattering.hpp"
@@ -43,7 +44,7 @@ class Phong {
       throw std::invalid_argument("segpath::Phong: the coefficient must be finite");
     if (!std::isfinite(exponent) || exponent < Scalar(0))
       throw std::invalid_argument("segpath::Phong: the exponent must be finite and >= 0, got " +
-                                  std::to_string(exponent));
+                                  format_number(double(exponent)));
     eval_scale_ = (exponent + Scalar(2)) * (Scalar(0.5) * inv_pi<Scalar>);
     pdf_scale_ = (exponent + Scalar(1)) * (Scalar(0.5) * inv_pi<Scalar>);
     inv_exponent_plus_one_ = Scalar(1) / (exponent + Scalar(1));

@@ -5,16 +5,16 @@
 // propagation can keep what it needs in cluster order and read it in order.
 #pragma once
 
+#include "segpath/core/format.hpp"
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/radix_sort.hpp"
 #include "segpath/core/segment.hpp"
-#include "segpath/propagation/junction_support.hpp"
 #include "segpath/kernels/voxel.hpp"
+#include "segpath/propagation/junction_support.hpp"
 
 #include <algorithm>
 #include <bit>
 #include <cstdint>
-#include <cstdio>
 #include <limits>
 #include <memory>
 #include <span>
@@ -263,10 +263,9 @@ class Clustering {
     std::size_t out_of_range = 0;
     for (const ChunkKeys& k : chunks_) out_of_range += k.out_of_range;
     if (out_of_range > 0) {
-      char cell[32];
-      std::snprintf(cell, sizeof cell, "%.3g", double(grid.cell_size()));
       throw std::invalid_argument("segpath::Clustering: " + std::to_string(out_of_range) +
-                                  " segment ends lie more than 2^30 voxels from the origin at voxel size " + cell +
+                                  " segment ends lie more than 2^30 voxels from the origin at voxel size " +
+                                  format_number(double(grid.cell_size()), 3) +
                                   ": use a larger voxel");
     }
   }

@@ -4,6 +4,7 @@
 // stored as neighbour lists (both directions, compressed rows) instead of a partition.
 #pragma once
 
+#include "segpath/core/format.hpp"
 #include "segpath/core/index_range.hpp"
 #include "segpath/core/parallel.hpp"
 #include "segpath/core/segment.hpp"
@@ -53,10 +54,10 @@ class DiskJunctions {
   void build(T radius, std::span<const Segment<T>> segments, const Canonical& canonical, T min_normal_cosine = T(0.5),
              const P& parallel_for = {}) {
     if (!(radius > T(0)) || !std::isfinite(radius))
-      throw std::invalid_argument("segpath::DiskJunctions: radius must be finite and > 0, got " + std::to_string(radius));
+      throw std::invalid_argument("segpath::DiskJunctions: radius must be finite and > 0, got " + format_number(double(radius)));
     if (!(min_normal_cosine >= T(-1) && min_normal_cosine <= T(1)))
       throw std::invalid_argument("segpath::DiskJunctions: min_normal_cosine must lie in [-1, 1], got " +
-                                  std::to_string(min_normal_cosine));
+                                  format_number(double(min_normal_cosine)));
     radius_ = radius;
     kernel_ = T(1) / (pi<T> * radius * radius);
     const auto n = static_cast<std::uint32_t>(segments.size());

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "segpath/concepts/sensor.hpp"
+#include "segpath/core/format.hpp"
 #include "segpath/core/in_place_optional.hpp"
 
 namespace segpath {
@@ -65,7 +66,7 @@ class PinholeCamera {
       const T len = glm::length(v);
       if (!is_finite(v) || !(std::abs(len - T(1)) <= tolerance))
         throw std::invalid_argument(std::string("segpath::PinholeCamera: ") + name +
-                                    " must be a unit vector, its length is " + std::to_string(len));
+                                    " must be a unit vector, its length is " + format_number(double(len)));
     };
     unit(forward_, "forward");
     unit(right_, "right");
@@ -75,7 +76,7 @@ class PinholeCamera {
       if (!(std::abs(c) <= tolerance))
         throw std::invalid_argument(std::string("segpath::PinholeCamera: ") + names +
                                     " must be orthogonal, their dot product is " +
-                                    std::to_string(c));
+                                    format_number(double(c)));
     };
     orthogonal(forward_, right_, "forward and right");
     orthogonal(forward_, up_, "forward and up");
@@ -90,7 +91,7 @@ class PinholeCamera {
     const auto half_tan = [](T fov, const char* name) {
       if (!(fov > T(0) && fov < T(180)))
         throw std::invalid_argument(std::string("segpath::PinholeCamera: ") + name +
-                                    " must lie in (0, 180) degrees, got " + std::to_string(fov));
+                                    " must lie in (0, 180) degrees, got " + format_number(double(fov)));
       return static_cast<T>(std::tan(static_cast<double>(fov) * std::numbers::pi / 360.0));
     };
     tan_x_ = half_tan(p.fov_x_degrees, "fov_x_degrees");

@@ -3,6 +3,7 @@
 // techniques (next-event, bridge segments) and the memory budget of the pair table.
 #pragma once
 
+#include "segpath/core/format.hpp"
 #include "segpath/core/vec.hpp"
 
 #include <algorithm>
@@ -190,10 +191,10 @@ void validate(const FilteringOptions<T>& options) {
                                 std::to_string(options.max_length));
   if (options.mode != FilteringMode::mvf && !(options.light_path_ratio > T(0) && std::isfinite(options.light_path_ratio)))
     throw std::invalid_argument("segpath::SegmentFiltering: beta (light paths per pixel) must be > 0, got " +
-                                std::to_string(options.light_path_ratio));
+                                format_number(double(options.light_path_ratio)));
   if (!(options.initial_cell_size >= T(0)) || !std::isfinite(options.initial_cell_size))
     throw std::invalid_argument("segpath::SegmentFiltering: voxel size must be > 0 (or 0 for automatic), got " +
-                                std::to_string(options.initial_cell_size));
+                                format_number(double(options.initial_cell_size)));
   if (options.bridges && options.mode != FilteringMode::bdpf)
     throw std::invalid_argument(std::string("segpath::SegmentFiltering: bridge segments join camera and light paths, "
                                             "so they need mode bdpf, got ") + to_string(options.mode));
