@@ -9,7 +9,7 @@
 //   P_k(a -> b) = J(a, b) (V_{k-1}(b) - P_{k-1}(b -> a)),   V_k(a) -= J(a, b) P_{k-1}(b -> a),
 // P_{-1} = 0, for every pair joined both ways (in segment filtering rare: a draw that lands in
 // the voxel it came from). Rare, but each lap of such a pair gains K f_r G w twice, which near a
-// glossy lobe's peak is far above 1: k sweeps raised it to the k / 2-th power (a firefly of 2e5
+// glossy lobe's peak is far above 1: k sweeps raised it to the k / 2-th power (a firefly of 2.2e5
 // in one pixel of PhF on Cornell box 3, docs/filtering.md).
 #pragma once
 
@@ -45,7 +45,7 @@ void for_each_round_trip(const J& support, std::span<const std::uint32_t> backtr
   // once, its one starting slot if in g; else a search of g's starts (a disk's neighbours).
   std::vector<std::uint32_t> start_slot;
   if constexpr (J::single_start) {
-    start_slot.assign(n, no_cluster);
+    start_slot.assign(support.segment_count(), no_cluster);
     for (std::uint32_t j = 0; j < std::uint32_t(std::ranges::size(starting_segment)); ++j) start_slot[starting_segment[j]] = j;
   }
   auto start_in = [&](std::size_t g, std::uint32_t b) {
