@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "support/catch.hpp"
+#include "support/random_backtracks.hpp"
 
 using namespace segpath;
 
@@ -36,24 +37,9 @@ struct RandomSides {
         emitted, geometry, density, light, terms, light_technique, flags, by_link, by_light_pair, {}, bridge_target_term, bridge_density,
         backtrack};
   }
-  /// Backtrack partners (ConditionedInputs::backtrack): most often a segment joined both ways
-  /// with s, so that chains can go round trips between them; sometimes a start near y_s only,
-  /// a segment anywhere (no round trip), none, or each other's partner.
+  /// Backtrack partners (ConditionedInputs::backtrack) over `near`, the starts near y_s.
   template <class Near>
-  void add_backtracks(Pcg32& rng, const Near& near) {
-    backtrack.assign(n, no_cluster);
-    for (std::uint32_t s = 0; s < n; ++s) {
-      const double u = rng.uniform<double>();
-      std::vector<std::uint32_t> both;  // starts near y_s near whose y s starts
-      for (const std::uint32_t b : near(s))
-        if (std::ranges::count(near(b), s) > 0) both.push_back(b);
-      const auto& starts = near(s);
-      if (u < 0.6 && !both.empty()) backtrack[s] = both[rng.next_u32() % both.size()];
-      else if (u < 0.7 && !starts.empty()) backtrack[s] = starts[rng.next_u32() % starts.size()];
-      else if (u < 0.8) backtrack[s] = rng.next_u32() % std::uint32_t(n);
-      if (backtrack[s] < n && rng.uniform<double>() < 0.2) backtrack[backtrack[s]] = s;  // each other's
-    }
-  }
+  void add_backtracks(Pcg32& rng, const Near& near) { backtrack = testing::random_backtracks(rng, near, n); }
   /// Whether s and s' are backtrack partners (either way round).
   [[nodiscard]] bool partners(std::uint32_t s, std::uint32_t sp) const {
     return !backtrack.empty() && s != sp && (backtrack[s] == sp || backtrack[sp] == s);

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "support/catch.hpp"
+#include "support/random_backtracks.hpp"
 
 using namespace segpath;
 
@@ -40,9 +41,7 @@ RandomPool make_pool(Pcg32& rng) {
   return pool;
 }
 
-/// Backtrack partners (PropagationInputs::backtrack): most often a segment joined both ways with
-/// s (its start near y_s and s's start near its y), so that chains can go round trips between
-/// them; sometimes a start near y_s only, a segment anywhere, none, or each other's partner.
+/// Backtrack partners (PropagationInputs::backtrack) over the clustering's starts near y_s.
 std::vector<std::uint32_t> random_backtracks(Pcg32& rng, const Clustering<double>& clustering, std::size_t n) {
   auto near = [&](std::uint32_t s) -> std::vector<std::uint32_t> {
     const std::uint32_t c = clustering.cluster_of_y(s);
@@ -52,19 +51,7 @@ std::vector<std::uint32_t> random_backtracks(Pcg32& rng, const Clustering<double
       if (sp != s) starts.push_back(sp);
     return starts;
   };
-  std::vector<std::uint32_t> backtrack(n, no_cluster);
-  for (std::uint32_t s = 0; s < n; ++s) {
-    const double u = rng.uniform<double>();
-    std::vector<std::uint32_t> both;
-    for (const std::uint32_t b : near(s))
-      if (std::ranges::count(near(b), s) > 0) both.push_back(b);
-    const auto starts = near(s);
-    if (u < 0.6 && !both.empty()) backtrack[s] = both[rng.next_u32() % both.size()];
-    else if (u < 0.7 && !starts.empty()) backtrack[s] = starts[rng.next_u32() % starts.size()];
-    else if (u < 0.8) backtrack[s] = rng.next_u32() % std::uint32_t(n);
-    if (backtrack[s] < n && rng.uniform<double>() < 0.2) backtrack[backtrack[s]] = s;  // each other's
-  }
-  return backtrack;
+  return testing::random_backtracks(rng, near, n);
 }
 
 }  // namespace
