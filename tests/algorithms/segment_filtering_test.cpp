@@ -835,14 +835,15 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
     FilteringStats s;
     auto& [segments, camera, light, bridge, clusters, light_paths, next_event, extra, repeat_visits, camera_repeat_visits, junctions, factorised_camera, factorised_light,
            factorised_transfer, pair_evaluations, cell_size, bytes_per_segment, transfer_cache, propagation_copy, lagged,
-           forced_values, records, record_slack, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = s;
+           forced_values, round_trips, records, record_slack, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = s;
     std::uint64_t count = static_cast<std::uint64_t>(base);
     for (std::uint64_t* c : {&segments, &camera, &light, &bridge, &clusters, &light_paths, &next_event, &extra, &repeat_visits, &camera_repeat_visits, &junctions,
                              &factorised_camera, &factorised_light, &factorised_transfer, &pair_evaluations})
       *c = count++;
     cell_size = 0.25;  // one iteration: every pass has the same cell
     std::size_t bytes = static_cast<std::size_t>(base) * 3;
-    for (std::size_t* b : {&bytes_per_segment, &transfer_cache, &propagation_copy, &lagged, &forced_values, &records, &record_slack}) *b = bytes++;
+    for (std::size_t* b : {&bytes_per_segment, &transfer_cache, &propagation_copy, &lagged, &forced_values, &round_trips, &records, &record_slack})
+      *b = bytes++;
     double seconds = base / 8;
     for (double* t : {&paths_s, &support_s, &densities_s, &propagation_s, &gather_s}) *t = (seconds += 0.5);
     passes = base < 50 ? 2 : 5;  // distinct, so that doubling one pass's count fails
@@ -854,7 +855,7 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
     m.add_pass(second);
     const auto& [segments, camera, light, bridge, clusters, light_paths, next_event, extra, repeat_visits, camera_repeat_visits, junctions, factorised_camera, factorised_light,
                  factorised_transfer, pair_evaluations, cell_size, bytes_per_segment, transfer_cache, propagation_copy, lagged,
-                 forced_values, records, record_slack, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = m;
+                 forced_values, round_trips, records, record_slack, paths_s, support_s, densities_s, propagation_s, gather_s, passes] = m;
     CHECK(segments == a.segments + b.segments);
     CHECK(camera == a.camera_segments + b.camera_segments);
     CHECK(light == a.light_segments + b.light_segments);
@@ -876,6 +877,7 @@ TEST_CASE("segment filtering: a pass's stats merge field by field, counts and se
     CHECK(propagation_copy == b.propagation_copy_bytes);
     CHECK(lagged == b.lagged_bytes);
     CHECK(forced_values == b.forced_value_bytes);
+    CHECK(round_trips == b.round_trip_bytes);
     CHECK(records == b.record_bytes);
     CHECK(record_slack == b.record_slack_bytes);
     CHECK(paths_s == a.paths_seconds + b.paths_seconds);

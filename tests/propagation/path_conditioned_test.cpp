@@ -487,6 +487,11 @@ TEST_CASE("path-conditioned propagation counts a chain's pieces as segments", "[
     CHECK(memory.lagged >= rings + watches * 10);
     CHECK(memory.lagged <= rings + watches * 20);
     CHECK(memory.forced_values == (forced_starts + forced_slots + 2) * sizeof(std::array<double, 2>) + (forced_starts + 1) * 4);
+    // The round trips' peak: at least the search's indices (each ending slot's group, and on
+    // voxels, where every segment starts once, each segment's starting slot); none without partners.
+    const std::size_t ending_slots = disk ? std::size(hood.junctions.ending_segments()) : std::size(hood.clustering.ending_segments());
+    if (p.backtrack.empty()) CHECK(memory.round_trips == 0);
+    else CHECK(memory.round_trips >= (ending_slots + (disk ? 0 : p.n)) * 4);
     RandomSides with_trips = p;
     with_trips.backtrack.clear();
     for (std::uint32_t s = 0; s < p.n; ++s) {

@@ -314,10 +314,15 @@ TEST_CASE("chains of several pieces count as that many segments, general or fact
     if (ring_values > 0)
       CHECK(workspace.lagged_bytes >= ring_values * sizeof(double) +
                                           (clustering.ending_segments().size() + clustering.starting_segments().size()) * 4);
+    // The round trips' peak it reports: at least the search's indices (each ending slot's group,
+    // each segment's starting slot: on voxels every segment starts once); none without partners.
+    if (backtrack.empty()) CHECK(workspace.round_trip_bytes == 0);
+    else CHECK(workspace.round_trip_bytes >= (clustering.ending_segments().size() + pool.n) * 4);
     std::vector<double> unchained;
     propagate(PropagationInputs<double, decltype(link)>{clustering, pool.emitted, pool.weighted_geometry, link, {}, {}, {}}, iterations,
               unchained, workspace);
     CHECK(workspace.lagged_bytes == 0);
+    CHECK(workspace.round_trip_bytes == 0);
     propagate(PropagationInputs<double, decltype(diffuse_link)>{clustering, pool.emitted, pool.weighted_geometry, diffuse_link,
                                                                 pool.diffuse, all, pieces, backtrack},
               iterations, factorised, scratch);

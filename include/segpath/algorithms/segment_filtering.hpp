@@ -202,14 +202,16 @@ class SegmentFiltering {
         // The propagation's arrays, and diffuse when factorising.
         propagation_bytes = filtering::conditioned_bytes_per_segment<S> + (options_.factorise ? sizeof(S) : 0) + bridge_bytes(side);
         after_release =
-            filtering::conditioned_bytes_after_release<S> + bridge_bytes(side) + (stats.lagged_bytes + stats.forced_value_bytes) / n;
+            filtering::conditioned_bytes_after_release<S> + bridge_bytes(side) +
+            (stats.lagged_bytes + stats.forced_value_bytes + stats.round_trip_bytes) / n;
       } else {
         filtering::propagate_pool(ctx, clustering, iterations, radiance, weighted_geometry, parallel_for,
                                   filtering::PoolGeometry::release);
         // Propagation: diffuse when factorising, the transfer, the workspace and the backtrack partners.
         propagation_bytes = (options_.factorise ? sizeof(S) : 0) + filtering::Transfer<Scn>::bytes_per_segment() +
                             PairTable<S>::bytes_per_ending_slot + PropagationWorkspace<S>::bytes_per_segment + sizeof(std::uint32_t);
-        after_release = PropagationWorkspace<S>::bytes_per_segment + sizeof(std::uint32_t) + stats.lagged_bytes / n;
+        after_release =
+            PropagationWorkspace<S>::bytes_per_segment + sizeof(std::uint32_t) + (stats.lagged_bytes + stats.round_trip_bytes) / n;
       }
     } else {
       DiskJunctions<T> junctions;
@@ -239,7 +241,7 @@ class SegmentFiltering {
     const std::size_t drawing = pool.bytes_per_segment() + stats.record_bytes / n;  // append's records and pool
     const std::size_t propagation_stage =
         pool.bytes_per_segment() - freed + support_bytes + sizeof(T) + sizeof(S) + propagation_bytes +
-        (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes) / n;
+        (stats.propagation_copy_bytes + stats.lagged_bytes + stats.forced_value_bytes + stats.round_trip_bytes) / n;
     stats.bytes_per_segment = std::max({drawing, support_stage, propagation_stage});
     lap(stats.gather_seconds);
     return stats;

@@ -205,6 +205,8 @@ struct ConditionedMemory {
   std::size_t lagged = 0;          ///< the lagged values of chains and their watches: 0 without chains
   /// The U values of the segments a junction can force, their copies and the sources' U indices.
   std::size_t forced_values = 0;
+  /// The most the round trips held at once (RoundTrips::peak_bytes): 0 without backtrack partners.
+  std::size_t round_trips = 0;
 };
 
 /// `iterations` >= 1 Jacobi iterations over the groups of a JunctionSupport (clusters, disks)
@@ -565,7 +567,8 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
   const ConditionedMemory memory{
       table.value_bytes(),
       lagged_w.bytes() + lagged_u.bytes() + (start_watch.capacity() + u_watch.capacity()) * sizeof(std::uint32_t),
-      (current_u.capacity() + starting_u.capacity()) * sizeof(Pair) + source_u.capacity() * sizeof(std::uint32_t)};
+      (current_u.capacity() + starting_u.capacity()) * sizeof(Pair) + source_u.capacity() * sizeof(std::uint32_t),
+      round_trips.peak_bytes()};
   // The propagation's peak is here: what only the sweeps read goes before the result is allocated.
   table = {};
   lagged_u = {};

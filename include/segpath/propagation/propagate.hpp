@@ -88,6 +88,9 @@ struct PropagationWorkspace {
   /// Set by propagate: the bytes its lagged values of chains took (LaggedValues and the watch
   /// of each start and end), 0 without chains. Not in bytes() nor bytes_per_segment.
   std::size_t lagged_bytes = 0;
+  /// Set by propagate: the most its round trips held at once (RadianceRoundTrips::peak_bytes),
+  /// 0 without backtrack partners. Not in bytes() nor bytes_per_segment.
+  std::size_t round_trip_bytes = 0;
   /// At most.
   static constexpr std::size_t bytes_per_segment = sizeof(std::uint32_t) + sizeof(T) + 5 * sizeof(S);
   [[nodiscard]] std::size_t bytes() const noexcept {
@@ -216,6 +219,7 @@ void propagate_prepared(const PropagationInputs<S, Link, J>& in, int iterations,
       },
       [&](std::uint32_t j) { return std::uint32_t(record(j)); }, std::span<const T>(w.starting_weight),
       [&](std::uint32_t j) { return in.pieces.empty() ? 1 : int(in.pieces[starting_segment[j]]); }, depth);
+  workspace.round_trip_bytes = round_trips.peak_bytes();
   for (int k = 0; k < iterations; ++k) {
     if (depth > 1) {
       const int budget = k + 1;

@@ -30,10 +30,12 @@ namespace segpath::detail {
 /// visit(g_a, i_a, j_b, g_b, i_b, j_a) for each pair a, b = backtrack[a] (each pair once,
 /// whichever way round it is given) whose two junctions a -> b and b -> a exist over `support`:
 /// a ends in group g_a at ending slot i_a, where b starts at starting slot j_b, and the other
-/// way round. joins(i, j): whether ending slot i joins starting slot j.
+/// way round. joins(i, j): whether ending slot i joins starting slot j. Returns the bytes of
+/// the indices the search held (an ending slot's group, and where every segment starts once,
+/// each segment's starting slot), freed on return.
 template <JunctionSupport J, class Joins, class Visit>
-void for_each_round_trip(const J& support, std::span<const std::uint32_t> backtrack, const Joins& joins, const Visit& visit) {
-  if (backtrack.empty()) return;
+std::size_t for_each_round_trip(const J& support, std::span<const std::uint32_t> backtrack, const Joins& joins, const Visit& visit) {
+  if (backtrack.empty()) return 0;
   const std::size_t n = std::min<std::size_t>(backtrack.size(), support.segment_count());  // a partner outside the support has none
   const auto ending_segment = support.ending_segments();
   const auto starting_segment = support.starting_segments();
@@ -67,6 +69,7 @@ void for_each_round_trip(const J& support, std::span<const std::uint32_t> backtr
     if (jb == no_cluster || ja == no_cluster || !joins(ia, jb) || !joins(ib, ja)) continue;
     visit(std::size_t(group_of[ia]), ia, jb, std::size_t(group_of[ib]), ib, ja);
   }
+  return (group_of.capacity() + start_slot.capacity()) * sizeof(std::uint32_t);
 }
 
 /// The parts P of every round-trip entry at the last depth + 1 budgets. With chains of several
@@ -88,6 +91,7 @@ class PartsByBudget {
   /// Where sweep k writes P of entry m (budget k + 1); no row it reads (budgets k + 1 - depth
   /// to k) is overwritten.
   [[nodiscard]] V& after(int k, std::size_t m) noexcept { return parts_[std::size_t(k + 1) % rows_ * entries_ + m]; }
+  [[nodiscard]] std::size_t bytes() const noexcept { return parts_.capacity() * sizeof(V); }
 
  private:
   std::size_t entries_ = 0, rows_ = 1;
@@ -108,13 +112,14 @@ class RoundTrips {
   void build(const J& support, std::span<const std::uint32_t> backtrack, const Joins& joins, const Applied& applied,
              const Record& record, const Pieces& pieces, int depth) {
     trips_.clear();
-    for_each_round_trip(support, backtrack, joins,
+    const std::size_t search = for_each_round_trip(support, backtrack, joins,
                         [&](std::size_t ga, std::uint32_t ia, std::uint32_t jb, std::size_t gb, std::uint32_t ib, std::uint32_t ja) {
                           // Entries 2m and 2m + 1: the two directions of one pair.
                           trips_.push_back({applied(ga, ia, jb), ia, record(jb), int(pieces(jb))});
                           trips_.push_back({applied(gb, ib, ja), ib, record(ja), int(pieces(ja))});
                         });
     parts_.reset(trips_.size(), depth, ConditionedValues<S>{});
+    peak_bytes_ = trips_.capacity() * sizeof(RoundTrip) + std::max(search, parts_.bytes());
   }
 
   /// After sweep k: takes the round trips out of the ending slots' values (current_w, and
@@ -146,6 +151,8 @@ class RoundTrips {
 
   /// The number of directed entries (two per pair).
   [[nodiscard]] std::size_t size() const noexcept { return trips_.size(); }
+  /// The most build held at once: the entries, and the search's indices or the parts.
+  [[nodiscard]] std::size_t peak_bytes() const noexcept { return peak_bytes_; }
 
  private:
   /// One direction a -> b: the junction as the sweep applies it, a's ending slot, b's start
@@ -157,6 +164,7 @@ class RoundTrips {
   };
   std::vector<RoundTrip> trips_;
   PartsByBudget<ConditionedValues<S>> parts_;
+  std::size_t peak_bytes_ = 0;
 };
 
 /// The round trips of the paper's propagation (propagation/propagate.hpp): one value per
@@ -175,7 +183,7 @@ class RadianceRoundTrips {
   void build(const J& support, std::span<const std::uint32_t> backtrack, const Joins& joins, const Gain& gain, const Record& record,
              std::span<const T> weight, const Pieces& pieces, int depth) {
     trips_.clear();
-    for_each_round_trip(support, backtrack, joins,
+    const std::size_t search = for_each_round_trip(support, backtrack, joins,
                         [&](std::size_t ga, std::uint32_t ia, std::uint32_t jb, std::size_t gb, std::uint32_t ib, std::uint32_t ja) {
                           // Entries 2m and 2m + 1: the two directions of one pair.
                           const std::uint32_t rb = record(jb), ra = record(ja);
@@ -183,6 +191,7 @@ class RadianceRoundTrips {
                           trips_.push_back({gain(gb, ib, ja), weight[ra], ib, ra, int(pieces(ja))});
                         });
     parts_.reset(trips_.size(), depth, S(T(0)));
+    peak_bytes_ = trips_.capacity() * sizeof(RoundTrip) + std::max(search, parts_.bytes());
   }
 
   /// After sweep k: takes the round trips out of the ending slots' values `out`, given what the
@@ -199,6 +208,8 @@ class RadianceRoundTrips {
 
   /// The number of directed entries (two per pair).
   [[nodiscard]] std::size_t size() const noexcept { return trips_.size(); }
+  /// The most build held at once: the entries, and the search's indices or the parts.
+  [[nodiscard]] std::size_t peak_bytes() const noexcept { return peak_bytes_; }
 
  private:
   /// One direction a -> b: the gain K f_r(a, b), G w of b, a's ending slot, b's start record
@@ -211,6 +222,7 @@ class RadianceRoundTrips {
   };
   std::vector<RoundTrip> trips_;
   PartsByBudget<S> parts_;
+  std::size_t peak_bytes_ = 0;
 };
 
 }  // namespace segpath::detail

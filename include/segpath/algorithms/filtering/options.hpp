@@ -149,6 +149,10 @@ struct FilteringStats {
   /// segments a junction can force, and their indices (ConditionedMemory::forced_values), for
   /// the whole pool.
   std::size_t forced_value_bytes = 0;
+  /// In bytes_per_segment: what the propagation's round trips held at once (the pairs'
+  /// entries, and the search's indices or the parts: propagation/round_trips.hpp), for the
+  /// whole pool.
+  std::size_t round_trip_bytes = 0;
   /// In bytes_per_segment: the camera and light paths' records (RecordList) when they were
   /// pooled, for the whole pool.
   std::size_t record_bytes = 0;
@@ -175,6 +179,7 @@ struct FilteringStats {
     propagation_copy_bytes = std::max(propagation_copy_bytes, p.propagation_copy_bytes);
     lagged_bytes = std::max(lagged_bytes, p.lagged_bytes);
     forced_value_bytes = std::max(forced_value_bytes, p.forced_value_bytes);
+    round_trip_bytes = std::max(round_trip_bytes, p.round_trip_bytes);
     record_bytes = std::max(record_bytes, p.record_bytes);
     record_slack_bytes = std::max(record_slack_bytes, p.record_slack_bytes);
     paths_seconds += p.paths_seconds, support_seconds += p.support_seconds, densities_seconds += p.densities_seconds;

@@ -104,6 +104,7 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
                                                                pool.pieces, backtrack},
               iterations, radiance, workspace, parallel_for);
     ctx.stats.lagged_bytes = workspace.lagged_bytes;
+    ctx.stats.round_trip_bytes = workspace.round_trip_bytes;
   } else {
     const auto& bsdf = scene.bsdf();
     auto link = [&](std::uint32_t s, std::uint32_t sp) -> S {
@@ -113,6 +114,7 @@ void propagate_pool(Context<Scn>& ctx, const J& support, int iterations, std::ve
     propagate(PropagationInputs<S, decltype(link), J>{support, pool.emitted, weighted_geometry, link, {}, {}, pool.pieces, backtrack},
               iterations, radiance, workspace, parallel_for);
     ctx.stats.lagged_bytes = workspace.lagged_bytes;
+    ctx.stats.round_trip_bytes = workspace.round_trip_bytes;
   }
 }
 
@@ -154,6 +156,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
         pool.pieces, side.bridge_target_term, side.bridge_density, backtrack};
     const ConditionedMemory memory = propagate_conditioned(support, inputs, iterations, radiance, parallel_for);
     stats.lagged_bytes = memory.lagged;
+    stats.round_trip_bytes = memory.round_trips;
     stats.forced_value_bytes = memory.forced_values;
   } else {
     std::vector<std::uint8_t> factorised;
@@ -214,6 +217,7 @@ void propagate_conditioned_pool(Context<Scn>& ctx, const Support& support, const
                               std::span<const S>(diffuse), ctx.options.transfer_cache_bytes, by_id_done);
     stats.transfer_cache_bytes = memory.junction_table;
     stats.lagged_bytes = memory.lagged;
+    stats.round_trip_bytes = memory.round_trips;
     stats.forced_value_bytes = memory.forced_values;
   }
   geometry.assign(pool.geometry.begin(), pool.geometry.end());
