@@ -11,6 +11,7 @@
 #include "cornell.hpp"
 #include "image_io.hpp"
 #include "integrators.hpp"
+#include "kernel_check.hpp"
 #include "options.hpp"
 #include "ranks.hpp"
 #include "tbb_parallel.hpp"
@@ -423,6 +424,8 @@ int run(const Options& o, const renderer::Ranks& ranks) {
         method = renderer::make_method(o.method, mo);
         if (!method) fail("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
         scene.emplace(load_scene(o));
+        if (o.radius)
+          if (const auto error = renderer::check_kernel(o.method, *o.radius, renderer::scene_diagonal(*scene)).error) fail(*error);
         if (o.passes != 1 && !std::visit([&](const auto& m) {
               if constexpr (requires { m.check_passes(*scene, mo); }) {
                 m.check_passes(*scene, mo);
@@ -489,6 +492,9 @@ int run(const Options& o, const renderer::Ranks& ranks) {
   if (root)
     if (const auto family = renderer::unsampled_family(o.method, *scene))
       std::fprintf(stderr, "segpath-render: warning: %s\n", family->c_str());
+  if (root && o.radius)
+    if (const auto wide = renderer::check_kernel(o.method, *o.radius, renderer::scene_diagonal(*scene)).warning)
+      std::fprintf(stderr, "segpath-render: warning: %s\n", wide->c_str());
 
   renderer::Stats stats;  // rank 0: the whole render's; other ranks: the round's
   if (!on_every_rank(ranks, [&] {

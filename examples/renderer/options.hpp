@@ -157,8 +157,9 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
       ->check(unsigned_integer)->check(CLI::Range(std::size_t(1), std::size_t(1000)))
       ->capture_default_str();
   app.add_option("--radius", o.radius,
-                 "initial kernel radius (bdpt/ppm/bpm/vcm) or voxel size (mvf/phf/bdpf), > 0; default: 1.25x (vcm), 2x (ppm/bpm) "
-                 "or 4x (filtering) the average pixel footprint; vcm refuses a radius whose MIS weights would leave float's "
+                 "initial kernel radius (ppm/bpm/vcm; bdpt merges nothing) or voxel size (mvf/phf/bdpf), > 0; default: 1.25x "
+                 "(vcm), 2x (ppm/bpm) or 4x (filtering) the average pixel footprint; a kernel spanning the scene's bounding-box "
+                 "diagonal is refused, a tenth of it warned about; vcm refuses a radius whose MIS weights would leave float's "
                  "range and names the range that works")
       ->check(kernel_size);
   app.add_option("--alpha", o.alpha, "progressive kernel shrinking, in (0, 1); default 0.75 (vcm family), 0.67 (filtering)")
