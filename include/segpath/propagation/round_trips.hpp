@@ -27,12 +27,22 @@
 
 namespace segpath::detail {
 
+/// A support that names the groups each segment starts and ends in (Clustering's clusters):
+/// for_each_round_trip then finds the pairs without an index of its own.
+template <class J>
+concept NamesSegmentGroups = requires(const J& j, std::uint32_t s) {
+  { j.cluster_of_x(s) } -> std::convertible_to<std::uint32_t>;
+  { j.cluster_of_y(s) } -> std::convertible_to<std::uint32_t>;
+};
+
 /// visit(g_a, i_a, j_b, g_b, i_b, j_a) for each pair a, b = backtrack[a] (each pair once,
 /// whichever way round it is given) whose two junctions a -> b and b -> a exist over `support`:
 /// a ends in group g_a at ending slot i_a, where b starts at starting slot j_b, and the other
 /// way round. joins(i, j): whether ending slot i joins starting slot j. Returns the bytes of
-/// the indices the search held (an ending slot's group, and where every segment starts once,
-/// each segment's starting slot), freed on return.
+/// the indices the search held, freed on return: none where the support names each segment's
+/// groups (NamesSegmentGroups: a pair's starting slots are then looked up in its two groups
+/// alone), else an ending slot's group and, where every segment starts once, each segment's
+/// starting slot.
 template <JunctionSupport J, class Joins, class Visit>
 std::size_t for_each_round_trip(const J& support, std::span<const std::uint32_t> backtrack, const Joins& joins, const Visit& visit) {
   if (backtrack.empty()) return 0;
@@ -40,36 +50,60 @@ std::size_t for_each_round_trip(const J& support, std::span<const std::uint32_t>
   const auto ending_segment = support.ending_segments();
   const auto starting_segment = support.starting_segments();
   const auto ending_slots = std::uint32_t(std::ranges::size(ending_segment));
-  std::vector<std::uint32_t> group_of(ending_slots, no_cluster);
-  for (std::size_t g = 0; g < support.group_count(); ++g)
-    for (std::uint32_t i = support.ending_slots(g).begin; i < support.ending_slots(g).end; ++i) group_of[i] = std::uint32_t(g);
-  // The starting slot of segment b in group g (no_cluster: none): where every segment starts
-  // once, its one starting slot if in g; else a search of g's starts (a disk's neighbours).
-  std::vector<std::uint32_t> start_slot;
-  if constexpr (J::single_start) {
-    start_slot.assign(support.segment_count(), no_cluster);
-    for (std::uint32_t j = 0; j < std::uint32_t(std::ranges::size(starting_segment)); ++j) start_slot[starting_segment[j]] = j;
-  }
-  auto start_in = [&](std::size_t g, std::uint32_t b) {
+  // The starting slot of segment b in group g, by a search of g's starts; no_cluster: none.
+  auto search_start = [&](std::size_t g, std::uint32_t b) {
     const SlotRange starting = support.starting_slots(g);
-    if constexpr (J::single_start) {
-      return starting.contains(start_slot[b]) ? start_slot[b] : no_cluster;
-    } else {
-      for (std::uint32_t j = starting.begin; j < starting.end; ++j)
-        if (starting_segment[j] == b) return j;
-      return no_cluster;
-    }
+    for (std::uint32_t j = starting.begin; j < starting.end; ++j)
+      if (starting_segment[j] == b) return j;
+    return no_cluster;
   };
-  for (std::uint32_t ia = 0; ia < ending_slots; ++ia) {
-    const std::uint32_t a = ending_segment[ia], b = backtrack[a];
-    if (b >= n || b == a || (backtrack[b] == a && b < a)) continue;  // each pair once
-    const std::uint32_t ib = support.ending_slot_of(b);
-    if (ib == no_cluster || group_of[ia] == no_cluster || group_of[ib] == no_cluster) continue;
-    const std::uint32_t jb = start_in(group_of[ia], b), ja = start_in(group_of[ib], a);
-    if (jb == no_cluster || ja == no_cluster || !joins(ia, jb) || !joins(ib, ja)) continue;
-    visit(std::size_t(group_of[ia]), ia, jb, std::size_t(group_of[ib]), ib, ja);
+  auto visit_if_joined = [&](std::uint32_t ga, std::uint32_t ia, std::uint32_t jb, std::uint32_t gb, std::uint32_t ib, std::uint32_t ja) {
+    if (jb == no_cluster || ja == no_cluster || !joins(ia, jb) || !joins(ib, ja)) return;
+    visit(std::size_t(ga), ia, jb, std::size_t(gb), ib, ja);
+  };
+  auto partner_of = [&](std::uint32_t a) -> std::uint32_t {
+    const std::uint32_t b = backtrack[a];
+    if (b >= n || b == a || (backtrack[b] == a && b < a)) return no_cluster;  // each pair once
+    return b;
+  };
+  if constexpr (NamesSegmentGroups<J>) {
+    for (std::uint32_t ia = 0; ia < ending_slots; ++ia) {
+      const std::uint32_t a = ending_segment[ia], b = partner_of(a);
+      if (b == no_cluster) continue;
+      const std::uint32_t ib = support.ending_slot_of(b), ga = support.cluster_of_y(a), gb = support.cluster_of_y(b);
+      // b must start where a ends and a where b ends: only then search the two groups' starts.
+      if (ib == no_cluster || ga == no_cluster || gb == no_cluster || support.cluster_of_x(b) != ga || support.cluster_of_x(a) != gb)
+        continue;
+      visit_if_joined(ga, ia, search_start(ga, b), gb, ib, search_start(gb, a));
+    }
+    return 0;
+  } else {
+    std::vector<std::uint32_t> group_of(ending_slots, no_cluster);
+    for (std::size_t g = 0; g < support.group_count(); ++g)
+      for (std::uint32_t i = support.ending_slots(g).begin; i < support.ending_slots(g).end; ++i) group_of[i] = std::uint32_t(g);
+    // Where every segment starts once, its one starting slot if in g; else a search of g's
+    // starts (a disk's neighbours).
+    std::vector<std::uint32_t> start_slot;
+    if constexpr (J::single_start) {
+      start_slot.assign(support.segment_count(), no_cluster);
+      for (std::uint32_t j = 0; j < std::uint32_t(std::ranges::size(starting_segment)); ++j) start_slot[starting_segment[j]] = j;
+    }
+    auto start_in = [&](std::size_t g, std::uint32_t b) {
+      if constexpr (J::single_start) {
+        return support.starting_slots(g).contains(start_slot[b]) ? start_slot[b] : no_cluster;
+      } else {
+        return search_start(g, b);
+      }
+    };
+    for (std::uint32_t ia = 0; ia < ending_slots; ++ia) {
+      const std::uint32_t a = ending_segment[ia], b = partner_of(a);
+      if (b == no_cluster) continue;
+      const std::uint32_t ib = support.ending_slot_of(b);
+      if (ib == no_cluster || group_of[ia] == no_cluster || group_of[ib] == no_cluster) continue;
+      visit_if_joined(group_of[ia], ia, start_in(group_of[ia], b), group_of[ib], ib, start_in(group_of[ib], a));
+    }
+    return (group_of.capacity() + start_slot.capacity()) * sizeof(std::uint32_t);
   }
-  return (group_of.capacity() + start_slot.capacity()) * sizeof(std::uint32_t);
 }
 
 /// The parts P of every round-trip entry at the last depth + 1 budgets. With chains of several
