@@ -3,6 +3,7 @@
 // its rays; the image is the accumulated sum divided by the iteration count whatever the method.
 #pragma once
 
+#include "kernel_check.hpp"
 #include "render_scene.hpp"
 
 #include <segpath/algorithms/light_tracer.hpp>
@@ -287,6 +288,7 @@ class MethodRun {
 class PtMethod : public MethodRun<segpath::PathTracer<ThreadCountingScene>> {
  public:
   static constexpr std::string_view name = "pt";
+  static constexpr RadiusUse radius_use = RadiusUse::ignored;
   static constexpr std::string_view description = "path tracing with next-event estimation (MIS)";
 
   /// Russian roulette with SmallVCM's rule (core/roulette.hpp) from the third segment on by
@@ -309,6 +311,7 @@ class PtMethod : public MethodRun<segpath::PathTracer<ThreadCountingScene>> {
 class LtMethod : public MethodRun<segpath::LightTracer<ThreadCountingScene>> {
  public:
   static constexpr std::string_view name = "lt";
+  static constexpr RadiusUse radius_use = RadiusUse::ignored;
   static constexpr std::string_view description = "light tracing (splats to the camera)";
 
   static constexpr std::size_t default_roulette_from = 0;  ///< no Russian roulette by default
@@ -331,6 +334,7 @@ template <segpath::VcmMode Mode>
 class VcmMethod : public MethodRun<segpath::VertexConnectionMerging<ThreadCountingScene>> {
  public:
   static constexpr std::string_view name = segpath::to_string(Mode);
+  static constexpr RadiusUse radius_use = Mode == segpath::VcmMode::bdpt ? RadiusUse::ignored : RadiusUse::merge_radius;
   static constexpr std::string_view description =
       Mode == segpath::VcmMode::bdpt  ? "bidirectional path tracing (all connections, MIS)"
       : Mode == segpath::VcmMode::ppm ? "progressive photon mapping (first non-specular camera hit)"
@@ -378,6 +382,7 @@ template <segpath::FilteringMode Mode>
 class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountingScene>> {
  public:
   static constexpr std::string_view name = segpath::to_string(Mode);
+  static constexpr RadiusUse radius_use = RadiusUse::voxel;
   static constexpr std::string_view description =
       Mode == segpath::FilteringMode::mvf   ? "multi-vertex path filtering (camera segments, propagation)"
       : Mode == segpath::FilteringMode::phf ? "photon filtering (light segments, propagation)"

@@ -11,7 +11,6 @@
 #include "cornell.hpp"
 #include "image_io.hpp"
 #include "integrators.hpp"
-#include "kernel_check.hpp"
 #include "options.hpp"
 #include "ranks.hpp"
 #include "tbb_parallel.hpp"
@@ -303,6 +302,12 @@ bool on_every_rank(const renderer::Ranks& ranks, Stage&& stage) {
 /// A stage's error (on_every_rank prints it).
 [[noreturn]] void fail(const std::string& message) { throw std::runtime_error(message); }
 
+/// --radius against the scene, as the chosen method reads it (renderer::check_kernel).
+renderer::KernelCheck kernel_check(const renderer::Options& o, const renderer::Method& method, const renderer::RenderScene& scene) {
+  const renderer::RadiusUse use = std::visit([](const auto& m) { return std::decay_t<decltype(m)>::radius_use; }, method);
+  return renderer::check_kernel(o.method, use, *o.radius, renderer::scene_diagonal(scene));
+}
+
 /// Stats as the counters sent between ranks: paths, rays, then the drops by reason.
 constexpr std::size_t stats_words = 2 + segpath::drop_reason_count;
 std::array<std::uint64_t, stats_words> stats_words_of(const renderer::Stats& s) {
@@ -425,7 +430,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
         if (!method) fail("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
         scene.emplace(load_scene(o));
         if (o.radius)
-          if (const auto error = renderer::check_kernel(o.method, *o.radius, renderer::scene_diagonal(*scene)).error) fail(*error);
+          if (const auto error = kernel_check(o, *method, *scene).error) fail(*error);
         if (o.passes != 1 && !std::visit([&](const auto& m) {
               if constexpr (requires { m.check_passes(*scene, mo); }) {
                 m.check_passes(*scene, mo);
@@ -493,8 +498,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
     if (const auto family = renderer::unsampled_family(o.method, *scene))
       std::fprintf(stderr, "segpath-render: warning: %s\n", family->c_str());
   if (root && o.radius)
-    if (const auto wide = renderer::check_kernel(o.method, *o.radius, renderer::scene_diagonal(*scene)).warning)
-      std::fprintf(stderr, "segpath-render: warning: %s\n", wide->c_str());
+    if (const auto warning = kernel_check(o, *method, *scene).warning) std::fprintf(stderr, "segpath-render: warning: %s\n", warning->c_str());
 
   renderer::Stats stats;  // rank 0: the whole render's; other ranks: the round's
   if (!on_every_rank(ranks, [&] {

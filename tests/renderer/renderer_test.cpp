@@ -116,6 +116,43 @@ TEST_CASE("the method list names every method and makes each by name", "[rendere
   CHECK_THROWS_AS(renderer::make_method("bdpf", bad_beta), std::invalid_argument);
 }
 
+TEST_CASE("--radius is checked against the scene's diagonal as the method reads it", "[renderer]") {
+  using renderer::check_kernel;
+  using renderer::RadiusUse;
+  const double diagonal = 4;
+  // A merge radius r is a kernel 2 r wide: refused from the diagonal on, warned from a tenth.
+  CHECK(check_kernel("vcm", RadiusUse::merge_radius, 2.0, diagonal).error);
+  CHECK_FALSE(check_kernel("vcm", RadiusUse::merge_radius, 1.999, diagonal).error);
+  CHECK(check_kernel("vcm", RadiusUse::merge_radius, 1.999, diagonal).warning);
+  CHECK(check_kernel("ppm", RadiusUse::merge_radius, 0.2, diagonal).warning);
+  CHECK_FALSE(check_kernel("ppm", RadiusUse::merge_radius, 0.1999, diagonal).warning);
+  CHECK_FALSE(check_kernel("ppm", RadiusUse::merge_radius, 0.1999, diagonal).error);
+  // A voxel v is v wide.
+  CHECK(check_kernel("bdpf", RadiusUse::voxel, 4.0, diagonal).error);
+  CHECK_FALSE(check_kernel("bdpf", RadiusUse::voxel, 3.999, diagonal).error);
+  CHECK(check_kernel("bdpf", RadiusUse::voxel, 0.4, diagonal).warning);
+  CHECK_FALSE(check_kernel("bdpf", RadiusUse::voxel, 0.3999, diagonal).warning);
+  // No kernel: a warning that --radius is ignored, whatever its size; no scene size: no check.
+  for (const double radius : {1e-3, 1e3}) {
+    const auto ignored = check_kernel("bdpt", RadiusUse::ignored, radius, diagonal);
+    CHECK_FALSE(ignored.error);
+    REQUIRE(ignored.warning);
+    CHECK(ignored.warning->find("bdpt has no kernel") != std::string::npos);
+  }
+  CHECK_FALSE(check_kernel("vcm", RadiusUse::merge_radius, 1e3, 0).error);
+  // Each method reads --radius as it uses it.
+  CHECK(renderer::PtMethod::radius_use == RadiusUse::ignored);
+  CHECK(renderer::LtMethod::radius_use == RadiusUse::ignored);
+  CHECK(renderer::VcmMethod<segpath::VcmMode::bdpt>::radius_use == RadiusUse::ignored);
+  for (const RadiusUse use : {renderer::VcmMethod<segpath::VcmMode::ppm>::radius_use, renderer::VcmMethod<segpath::VcmMode::bpm>::radius_use,
+                              renderer::VcmMethod<segpath::VcmMode::vcm>::radius_use})
+    CHECK(use == RadiusUse::merge_radius);
+  for (const RadiusUse use : {renderer::FilteringMethod<segpath::FilteringMode::mvf>::radius_use,
+                              renderer::FilteringMethod<segpath::FilteringMode::phf>::radius_use,
+                              renderer::FilteringMethod<segpath::FilteringMode::bdpf>::radius_use})
+    CHECK(use == RadiusUse::voxel);
+}
+
 TEST_CASE("path tracing renders each Cornell box to a finite, positive image", "[renderer]") {
   for (int box = 0; box < 4; ++box) {
     const RenderScene scene = renderer::make_cornell(box, 24, 24);
