@@ -2,7 +2,7 @@
 // ConditionedInputs::backtrack): the round trips propagation/round_trips.hpp takes out.
 #pragma once
 
-#include <segpath/propagation/clustering.hpp>
+#include <segpath/propagation/junction_support.hpp>
 #include <segpath/core/rng.hpp>
 
 #include <algorithm>
@@ -15,7 +15,8 @@ namespace segpath::testing {
 /// Per segment s of n, a partner: most often a segment joined both ways with s (a start near
 /// y_s near whose y s starts), so that chains can go round trips between them; sometimes a
 /// start near y_s only, a segment anywhere (no round trip), none, or each other's partner.
-/// `near(s)` gives the segments starting near y_s, s excluded.
+/// `near(s)` gives the segments starting near y_s; s itself may be among them (a partner of
+/// its own is never a round trip).
 template <class Near>
 std::vector<std::uint32_t> random_backtracks(Pcg32& rng, const Near& near, std::size_t n) {
   std::vector<std::uint32_t> backtrack(n, no_cluster);

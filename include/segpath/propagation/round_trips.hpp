@@ -27,10 +27,12 @@
 
 namespace segpath::detail {
 
-/// A support that names the groups each segment starts and ends in (Clustering's clusters):
-/// for_each_round_trip then finds the pairs without an index of its own.
+/// A support where every segment starts once and that names the groups each segment starts
+/// and ends in (Clustering's clusters): segment s's starting slot lies in
+/// starting_slots(cluster_of_x(s)), its ending slot in ending_slots(cluster_of_y(s)), and
+/// no_cluster names none. for_each_round_trip then finds the pairs without an index of its own.
 template <class J>
-concept NamesSegmentGroups = requires(const J& j, std::uint32_t s) {
+concept NamesSegmentGroups = J::single_start && requires(const J& j, std::uint32_t s) {
   { j.cluster_of_x(s) } -> std::convertible_to<std::uint32_t>;
   { j.cluster_of_y(s) } -> std::convertible_to<std::uint32_t>;
 };
@@ -40,9 +42,9 @@ concept NamesSegmentGroups = requires(const J& j, std::uint32_t s) {
 /// a ends in group g_a at ending slot i_a, where b starts at starting slot j_b, and the other
 /// way round. joins(i, j): whether ending slot i joins starting slot j. Returns the bytes of
 /// the indices the search held, freed on return: none where the support names each segment's
-/// groups (NamesSegmentGroups: a pair's starting slots are then looked up in its two groups
-/// alone), else an ending slot's group and, where every segment starts once, each segment's
-/// starting slot.
+/// groups (NamesSegmentGroups: a pair's starting slots are then searched in its two groups
+/// alone, which costs at most a non-factorised sweep of them), else an ending slot's group and,
+/// where every segment starts once, each segment's starting slot.
 template <JunctionSupport J, class Joins, class Visit>
 std::size_t for_each_round_trip(const J& support, std::span<const std::uint32_t> backtrack, const Joins& joins, const Visit& visit) {
   if (backtrack.empty()) return 0;
@@ -50,7 +52,8 @@ std::size_t for_each_round_trip(const J& support, std::span<const std::uint32_t>
   const auto ending_segment = support.ending_segments();
   const auto starting_segment = support.starting_segments();
   const auto ending_slots = std::uint32_t(std::ranges::size(ending_segment));
-  // The starting slot of segment b in group g, by a search of g's starts; no_cluster: none.
+  // The starting slot of segment b in group g, by a search of g's starts (a disk's neighbours,
+  // or a cluster that b starts in); no_cluster: none.
   auto search_start = [&](std::size_t g, std::uint32_t b) {
     const SlotRange starting = support.starting_slots(g);
     for (std::uint32_t j = starting.begin; j < starting.end; ++j)
