@@ -41,19 +41,6 @@ RandomPool make_pool(Pcg32& rng) {
   return pool;
 }
 
-/// Backtrack partners (PropagationInputs::backtrack) over the clustering's starts near y_s.
-std::vector<std::uint32_t> random_backtracks(Pcg32& rng, const Clustering<double>& clustering, std::size_t n) {
-  auto near = [&](std::uint32_t s) -> std::vector<std::uint32_t> {
-    const std::uint32_t c = clustering.cluster_of_y(s);
-    if (c == no_cluster) return {};
-    std::vector<std::uint32_t> starts;
-    for (const std::uint32_t sp : clustering.starting_segments(c))
-      if (sp != s) starts.push_back(sp);
-    return starts;
-  };
-  return testing::random_backtracks(rng, near, n);
-}
-
 }  // namespace
 
 TEST_CASE("propagation equals the naive recursive MMIS estimator on 1000 random pools", "[propagation][estimators]") {
@@ -66,7 +53,7 @@ TEST_CASE("propagation equals the naive recursive MMIS estimator on 1000 random 
                      pool.segments);
     auto link = [&](std::uint32_t s, std::uint32_t sp) { return pool.link_table[s * pool.n + sp]; };
     const std::vector<std::uint32_t> backtrack =
-        trial % 2 ? random_backtracks(rng, clustering, pool.n) : std::vector<std::uint32_t>{};
+        trial % 2 ? testing::random_backtracks(rng, clustering, pool.n) : std::vector<std::uint32_t>{};
     const PropagationInputs<double, decltype(link)> inputs{clustering, pool.emitted, pool.weighted_geometry, link, {}, {}, {},
                                                            backtrack};
     const int depth = 1 + int(rng.next_u32() % 5);
@@ -297,7 +284,7 @@ TEST_CASE("chains of several pieces count as that many segments, general or fact
     clustering.build(VoxelGrid<double>(1.0, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)), pool.segments);
     // Round trips with chains: the part taken out is the one at the budget the start was read at.
     const std::vector<std::uint32_t> backtrack =
-        trial % 2 ? random_backtracks(rng, clustering, pool.n) : std::vector<std::uint32_t>{};
+        trial % 2 ? testing::random_backtracks(rng, clustering, pool.n) : std::vector<std::uint32_t>{};
     auto link = [&](std::uint32_t s, std::uint32_t sp) { return pool.link_table[s * pool.n + sp]; };
     auto diffuse_link = [&](std::uint32_t s, std::uint32_t) { return pool.diffuse[s]; };
     const std::vector<std::uint8_t> all(clustering.group_count(), 1);

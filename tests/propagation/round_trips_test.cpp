@@ -50,15 +50,7 @@ TEST_CASE("the round-trip search finds the same pairs, in the same order, with a
     for (std::size_t i = 0; i < n; ++i) segments.push_back({point(), point()});
     Clustering<double> clustering;
     clustering.build(VoxelGrid<double>(1.0, Vec3<double>(rng.uniform<double>(), rng.uniform<double>(), 0.5)), segments);
-    auto near = [&](std::uint32_t s) -> std::vector<std::uint32_t> {
-      const std::uint32_t c = clustering.cluster_of_y(s);
-      if (c == no_cluster) return {};
-      std::vector<std::uint32_t> starts;
-      for (const std::uint32_t sp : clustering.starting_segments(c))
-        if (sp != s) starts.push_back(sp);
-      return starts;
-    };
-    const std::vector<std::uint32_t> backtrack = trial % 8 == 0 ? std::vector<std::uint32_t>{} : testing::random_backtracks(rng, near, n);
+    const std::vector<std::uint32_t> backtrack = trial % 8 == 0 ? std::vector<std::uint32_t>{} : testing::random_backtracks(rng, clustering, n);
     // Some junctions do not join (zero G w, a start read from its own slot).
     const std::uint64_t salt = rng.next_u32();
     auto joins = [&](std::uint32_t i, std::uint32_t j) { return (i * 7919u + j * 104729u + salt) % 5 != 0; };

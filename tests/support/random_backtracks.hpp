@@ -2,6 +2,7 @@
 // ConditionedInputs::backtrack): the round trips propagation/round_trips.hpp takes out.
 #pragma once
 
+#include <segpath/propagation/clustering.hpp>
 #include <segpath/propagation/junction_support.hpp>
 #include <segpath/core/rng.hpp>
 
@@ -32,6 +33,20 @@ std::vector<std::uint32_t> random_backtracks(Pcg32& rng, const Near& near, std::
     if (backtrack[s] < n && rng.uniform<double>() < 0.2) backtrack[backtrack[s]] = s;  // each other's
   }
   return backtrack;
+}
+
+/// The same over a clustering: the segments starting in the cluster where s ends.
+template <class T>
+std::vector<std::uint32_t> random_backtracks(Pcg32& rng, const Clustering<T>& clustering, std::size_t n) {
+  auto near = [&](std::uint32_t s) -> std::vector<std::uint32_t> {
+    const std::uint32_t c = clustering.cluster_of_y(s);
+    if (c == no_cluster) return {};
+    std::vector<std::uint32_t> starts;
+    for (const std::uint32_t sp : clustering.starting_segments(c))
+      if (sp != s) starts.push_back(sp);
+    return starts;
+  };
+  return random_backtracks(rng, near, n);
 }
 
 }  // namespace segpath::testing
