@@ -203,10 +203,8 @@ ConditionedBridgeEnd<spectrum_scalar_t<S>> conditioned_bridge_end(const Conditio
 struct ConditionedMemory {
   std::size_t junction_table = 0;  ///< the ConditionedJunction table (junction_cache_bytes at most)
   std::size_t lagged = 0;          ///< the lagged values of chains and their watches: 0 without chains
-  /// The U values of the segments a junction can force, their copies and the sources' U indices.
-  std::size_t forced_values = 0;
-  /// The most the round trips held at once (RoundTrips::peak_bytes): 0 without backtrack partners.
-  std::size_t round_trips = 0;
+  std::size_t forced_values = 0;   ///< the U values a junction can force, their copies, the sources' U indices
+  std::size_t round_trips = 0;     ///< the most the round trips held at once (RoundTrips::peak_bytes)
 };
 
 /// `iterations` >= 1 Jacobi iterations over the groups of a JunctionSupport (clusters, disks)
@@ -564,8 +562,7 @@ ConditionedMemory propagate_conditioned(const J& support, const ConditionedInput
       lagged_u.keep_each(k + 1, [&](std::uint32_t i) -> const Pair& { return current_u[slot_u[i]]; }, parallel_for);
     }
   }
-  const ConditionedMemory memory{
-      table.value_bytes(),
+  const ConditionedMemory memory{table.value_bytes(),
       lagged_w.bytes() + lagged_u.bytes() + (start_watch.capacity() + u_watch.capacity()) * sizeof(std::uint32_t),
       (current_u.capacity() + starting_u.capacity()) * sizeof(Pair) + source_u.capacity() * sizeof(std::uint32_t),
       round_trips.peak_bytes()};
