@@ -420,6 +420,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
   renderer::MethodOptions mo = renderer::method_options(o);
   std::optional<renderer::Method> method;
   std::optional<renderer::RenderScene> scene;
+  renderer::KernelCheck kernel;  // --radius against the scene: the set-up fails on its error, the root prints its warning
   if (!on_every_rank(ranks, [&] {
         // (A resumed render may end with a partial round: ranks beyond its iterations wait.)
         if (!o.time && first == 0 && size > o.spp)
@@ -429,8 +430,10 @@ int run(const Options& o, const renderer::Ranks& ranks) {
         method = renderer::make_method(o.method, mo);
         if (!method) fail("--method " + o.method + ": unknown method (use " + joined(renderer::method_names(), ", ") + ")");
         scene.emplace(load_scene(o));
-        if (o.radius)
-          if (const auto error = kernel_check(o, *method, *scene).error) fail(*error);
+        if (o.radius) {
+          kernel = kernel_check(o, *method, *scene);
+          if (kernel.error) fail(*kernel.error);
+        }
         if (o.passes != 1 && !std::visit([&](const auto& m) {
               if constexpr (requires { m.check_passes(*scene, mo); }) {
                 m.check_passes(*scene, mo);
@@ -497,8 +500,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
   if (root)
     if (const auto family = renderer::unsampled_family(o.method, *scene))
       std::fprintf(stderr, "segpath-render: warning: %s\n", family->c_str());
-  if (root && o.radius)
-    if (const auto warning = kernel_check(o, *method, *scene).warning) std::fprintf(stderr, "segpath-render: warning: %s\n", warning->c_str());
+  if (root && kernel.warning) std::fprintf(stderr, "segpath-render: warning: %s\n", kernel.warning->c_str());
 
   renderer::Stats stats;  // rank 0: the whole render's; other ranks: the round's
   if (!on_every_rank(ranks, [&] {
