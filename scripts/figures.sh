@@ -23,7 +23,10 @@ render="$build/examples/segpath-render"
 # Issue 5: iterations per second of every method on Cornell box 1, 512x512, 2 threads.
 # The VCM family with SmallVCM's merge radius (0.003 x the scene's bounding radius, ~0.0066)
 # and alpha, so the comparison with SmallVCM's figures is like for like.
-for m in pt bdpt ppm bpm vcm; do
+for m in pt bdpt; do
+  "$render" --scene cornell1 --method "$m" --spp 8 --threads 2 | tee -a "$out/iterations.txt"
+done
+for m in ppm bpm vcm; do
   "$render" --scene cornell1 --method "$m" --spp 8 --threads 2 --radius 0.0066 --alpha 0.75 | tee -a "$out/iterations.txt"
 done
 for m in mvf phf bdpf; do
