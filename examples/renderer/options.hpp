@@ -60,6 +60,8 @@ struct Options {
   // OBJ scenes only: a look-at camera ("x,y,z" vectors).
   std::string camera_position = "0,0,0", camera_target = "0,1,0", camera_up = "0,0,1";
   float fov = 45;
+  /// The camera options given on the command line ("--fov", ...): only OBJ scenes read them.
+  std::vector<std::string> camera_options_given;
 };
 
 inline bool ends_with_obj(const std::string& s) {
@@ -228,6 +230,8 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
       "--reference the RMSE and relMSE (mean over pixels and channels of (x - r)^2 / (r^2 + 1e-2)).\n");
   try {
     app.parse(argc, argv);
+    for (const char* name : {"--camera-position", "--camera-target", "--camera-up", "--fov"})
+      if (app.get_option_no_throw(name) != nullptr && app.count(name) > 0) o.camera_options_given.emplace_back(name);
   } catch (const CLI::CallForHelp&) {
     return {std::nullopt, 0, app.help()};
   } catch (const CLI::ParseError& e) {
@@ -241,6 +245,15 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
     return {std::nullopt, 2, std::string("segpath-render: cannot read the command line: ") + e.what() + " (see --help)\n"};
   }
   return {std::move(o), 0, {}};
+}
+
+/// A warning where camera options were given for a built-in scene, which has its own camera.
+[[nodiscard]] inline std::optional<std::string> ignored_camera_options(const Options& o) {
+  if (o.camera_options_given.empty() || ends_with_obj(o.scene)) return std::nullopt;
+  std::string names;
+  for (const auto& name : o.camera_options_given) names += (names.empty() ? "" : ", ") + name;
+  return o.scene + " has its own camera: " + names + " (the camera of OBJ scenes) " +
+         (o.camera_options_given.size() == 1 ? "is" : "are") + " ignored";
 }
 
 /// The library options the command line sets (the method's own defaults where it is silent).

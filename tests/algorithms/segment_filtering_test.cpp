@@ -103,6 +103,14 @@ TEST_CASE("segment filtering: bad options are rejected", "[algorithms]") {
     o.light_path_ratio = 1e30;
     CHECK(filtering::light_path_count(scene, filtering::technique_set(o)) == std::numeric_limits<std::uint64_t>::max());
     CHECK_THROWS_AS(filtering::check_passes(scene, o), std::invalid_argument);
+    // A beta that rounds to no light path: the message names the beta that draws one (it said
+    // "use at most 0 passes").
+    o.pixel_passes = 1;
+    o.light_path_ratio = 0.01;  // 0.16 light paths
+    CHECK_THROWS_WITH(filtering::check_passes(scene, o),
+                      Catch::Contains("rounds to no light path an iteration: use beta >= 1 / #pixels = 0.0625"));
+    o.light_path_ratio = 0.0625;
+    CHECK_NOTHROW(filtering::check_passes(scene, o));
   }
   o = {};
   o.next_event = true;  // from camera technique points, which PhF has none of: it draws none

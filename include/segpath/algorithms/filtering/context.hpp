@@ -6,6 +6,7 @@
 #include "segpath/algorithms/filtering/pool.hpp"
 #include "segpath/algorithms/filtering/technique_set.hpp"
 #include "segpath/concepts/scene.hpp"
+#include "segpath/core/format.hpp"
 #include "segpath/core/poisson.hpp"
 #include "segpath/core/rng.hpp"
 #include "segpath/kernels/voxel.hpp"
@@ -61,6 +62,10 @@ void check_passes(const Scn& scene, const FilteringOptions<T>& options) {
                                 " light paths an iteration in " + std::to_string(passes) + " pixel pass(es), more than a pass's pool "
                                 "can index (" + std::to_string(max_light_paths_per_pass) + " a pass): lower beta or use more passes");
   if (passes <= max_passes(scene, options)) return;
+  if (const TechniqueSet techniques = technique_set(options); techniques.light_paths_per_pixel > 0 && light_path_count(scene, techniques) == 0)
+    throw std::invalid_argument("segpath::SegmentFiltering: beta " + format_number(techniques.light_paths_per_pixel) + " x " +
+                                std::to_string(pixels) + " pixels rounds to no light path an iteration: use beta >= 1 / #pixels = " +
+                                format_number(1.0 / double(pixels)));
   if (passes > pixels)
     throw std::invalid_argument("segpath::SegmentFiltering: " + std::to_string(passes) + " pixel passes for " +
                                 std::to_string(pixels) + " pixels: use at most one pass per pixel");
