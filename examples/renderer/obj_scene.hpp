@@ -4,6 +4,8 @@
 
 #include "render_scene.hpp"
 
+#include <segpath/core/format.hpp>
+
 #include <tiny_obj_loader.h>
 
 #include <algorithm>
@@ -78,7 +80,7 @@ inline segpath::PinholeCamera<T> make_obj_camera(const ObjCamera& c, std::uint32
   const D up = glm::cross(right, forward);
   if (!(c.fov_y_degrees > 0 && c.fov_y_degrees < 180))
     throw std::invalid_argument("obj camera: the vertical field of view must lie in (0, 180) degrees, got " +
-                                std::to_string(c.fov_y_degrees));
+                                segpath::format_number(double(c.fov_y_degrees)));
   if (width == 0 || height == 0) throw std::invalid_argument("obj camera: the image size must be positive");
   const double pi = 3.14159265358979323846;
   const double tan_y = std::tan(double(c.fov_y_degrees) * pi / 360.0);
@@ -215,8 +217,8 @@ inline bool obj_at_most_one(const Color& c) { return c.r <= 1 && c.g <= 1 && c.b
 
 inline std::string obj_text(const Color& c) {
   std::string s(1, '(');
-  s.append(std::to_string(c.r)).append(", ").append(std::to_string(c.g)).append(", ");
-  return s.append(std::to_string(c.b)).append(")");
+  s.append(segpath::format_number(double(c.r))).append(", ").append(segpath::format_number(double(c.g))).append(", ");
+  return s.append(segpath::format_number(double(c.b))).append(")");
 }
 
 }  // namespace detail
