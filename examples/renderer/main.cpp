@@ -397,6 +397,9 @@ int run(const Options& o, const renderer::Ranks& ranks) {
             fail("--reference " + *o.reference + " is " + std::to_string(reference->width) + "x" +
                  std::to_string(reference->height) + ", the render is " + std::to_string(o.width) + "x" +
                  std::to_string(o.height));
+          // Checked here, not after the render (renderer::compare refuses it too).
+          if (std::ranges::any_of(reference->pixels, [](const auto& p) { return !segpath::is_finite(p); }))
+            fail("--reference " + *o.reference + " contains NaN or infinite values: a reference must be finite");
         }
         if (o.resume) {
           resumed = renderer::read_checkpoint(*o.resume);
