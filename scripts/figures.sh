@@ -21,11 +21,11 @@ render="$build/examples/segpath-render"
 "$build/bench/renderer/bench_renderer_cornell_pt_bench" | tee "$out/cornell_pt.txt"
 "$build/bench/renderer/bench_renderer_embree_rays_bench" | tee "$out/embree_rays.txt"
 # Issue 5: iterations per second of every method on Cornell box 1, 512x512, 2 threads.
-# The VCM family with SmallVCM's merge radius (0.003 x the scene's bounding radius, ~0.0066)
-# and alpha, so the comparison with SmallVCM's figures is like for like.
 for m in pt bdpt; do
   "$render" --scene cornell1 --method "$m" --spp 8 --threads 2 | tee -a "$out/iterations.txt"
 done
+# The VCM family with SmallVCM's merge radius (0.003 x the scene's bounding radius, ~0.0066)
+# and alpha, so the comparison with SmallVCM's figures is like for like.
 for m in ppm bpm vcm; do
   "$render" --scene cornell1 --method "$m" --spp 8 --threads 2 --radius 0.0066 --alpha 0.75 | tee -a "$out/iterations.txt"
 done
