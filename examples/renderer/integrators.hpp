@@ -470,18 +470,22 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
 
 /// The light-transport family a filtering method cannot sample in `scene`, if any (a one-line
 /// warning for the user, instead of a silently dark image): MVF's camera paths never end on a
-/// Dirac light (point light, sun) and its next-event segments do not pass mirrors or glass, so
-/// the Dirac light's caustics are missing. (PhF's sky paths chain through mirrors and glass.)
-inline std::optional<std::string> unsampled_family(std::string_view method, const RenderScene& scene) {
+/// Dirac light (point light, sun), so without next-event segments (`next_event` false) it
+/// samples none of its light, and with them, which do not pass mirrors or glass, the Dirac
+/// light's caustics are missing. (PhF's sky paths chain through mirrors and glass.)
+inline std::optional<std::string> unsampled_family(std::string_view method, const RenderScene& scene, bool next_event) {
+  const auto& light = scene.emitter().get();
+  const bool dirac = std::holds_alternative<segpath::PointLight<Color>>(light) ||
+                     std::holds_alternative<segpath::DirectionalLight<Color>>(light);
+  if (method == "mvf" && dirac && !next_event)
+    return std::string("mvf without next-event segments cannot sample a point light or the sun at all (the image renders "
+                       "black); leave them on, or use bdpf or phf");
   bool delta_material = false;
   for (std::uint32_t id = 0; id < scene.bsdf().size(); ++id) {
     const auto* m = scene.bsdf().find(id);
     delta_material |= m && (std::holds_alternative<segpath::Mirror<Color>>(*m) || std::holds_alternative<segpath::Dielectric<Color>>(*m));
   }
   if (!delta_material) return std::nullopt;
-  const auto& light = scene.emitter().get();
-  const bool dirac = std::holds_alternative<segpath::PointLight<Color>>(light) ||
-                     std::holds_alternative<segpath::DirectionalLight<Color>>(light);
   if (method == "mvf" && dirac)
     return std::string("mvf cannot sample light from a point light or the sun through mirrors or glass (those caustics "
                        "render dark); bdpf or phf sample it");

@@ -501,7 +501,7 @@ int run(const Options& o, const renderer::Ranks& ranks) {
       }))
     return 1;
   if (root)
-    if (const auto family = renderer::unsampled_family(o.method, *scene))
+    if (const auto family = renderer::unsampled_family(o.method, *scene, o.next_event))
       std::fprintf(stderr, "segpath-render: warning: %s\n", family->c_str());
   if (root && kernel.warning) std::fprintf(stderr, "segpath-render: warning: %s\n", kernel.warning->c_str());
   if (root)
