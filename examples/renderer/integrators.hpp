@@ -195,6 +195,10 @@ class MethodRun {
 
   explicit MethodRun(Library method) : method_(std::move(method)) {}
 
+  /// Whether the method reads the command line's `option` among those of segment filtering
+  /// (method_specific_option); FilteringMethod says which it reads.
+  [[nodiscard]] static bool reads_option(std::string_view) noexcept { return false; }
+
   /// Renders the next iteration of `scene` (the same scene at every call: the first starts the
   /// render at its sensor's size), adds it to the sum and adds rays, paths and drops to `stats`;
   /// returns what the method's iteration returns (SegmentFiltering: FilteringStats).
@@ -416,6 +420,14 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
     return segpath::filtering::max_passes(scene, filtering_options(o));
   }
 
+  /// The options of segment filtering this mode reads: next-event segments come from camera
+  /// technique points (not PhF's), bridges and the chain weighting are BDPF's.
+  [[nodiscard]] static bool reads_option(std::string_view option) noexcept {
+    return option == "--support" || option == "--transfer-cache" || option == "--passes" ||
+           (option == "--next-event" && Mode != segpath::FilteringMode::phf) ||
+           ((option == "--bridges" || option == "--weighting") && Mode == segpath::FilteringMode::bdpf);
+  }
+
   /// MVF draws no light paths: no beta. No Russian roulette option.
   [[nodiscard]] static ResolvedSettings resolved(const MethodOptions& o) {
     const segpath::FilteringOptions<T> f = filtering_options(o);
@@ -490,6 +502,16 @@ inline std::optional<std::string> unsampled_family(std::string_view method, cons
     return std::string("mvf cannot sample light from a point light or the sun through mirrors or glass (those caustics "
                        "render dark); bdpf or phf sample it");
   return std::nullopt;
+}
+
+/// The options that only some methods read (--radius aside: kernel_check.hpp): alpha, beta,
+/// the camera roulette and the Russian roulette (ResolvedSettings), and segment filtering's
+/// (Method::reads_option).
+[[nodiscard]] inline bool method_specific_option(std::string_view name) noexcept {
+  for (const std::string_view option : {"--alpha", "--beta", "--camera-continuation", "--roulette-from", "--support", "--bridges",
+                                        "--next-event", "--weighting", "--transfer-cache", "--passes"})
+    if (name == option) return true;
+  return false;
 }
 
 /// Every method the renderer offers: adding one is one line here.

@@ -505,7 +505,8 @@ int run(const Options& o, const renderer::Ranks& ranks) {
       std::fprintf(stderr, "segpath-render: warning: %s\n", family->c_str());
   if (root && kernel.warning) std::fprintf(stderr, "segpath-render: warning: %s\n", kernel.warning->c_str());
   if (root)
-    if (const auto camera = renderer::ignored_camera_options(o)) std::fprintf(stderr, "segpath-render: warning: %s\n", camera->c_str());
+    for (const auto& warning : {renderer::ignored_camera_options(o), renderer::ignored_method_options(o, *method)})
+      if (warning) std::fprintf(stderr, "segpath-render: warning: %s\n", warning->c_str());
 
   renderer::Stats stats;  // rank 0: the whole render's; other ranks: the round's
   if (!on_every_rank(ranks, [&] {

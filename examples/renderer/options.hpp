@@ -60,8 +60,9 @@ struct Options {
   // OBJ scenes only: a look-at camera ("x,y,z" vectors).
   std::string camera_position = "0,0,0", camera_target = "0,1,0", camera_up = "0,0,1";
   float fov = 45;
-  /// The camera options given on the command line ("--fov", ...): only OBJ scenes read them.
-  std::vector<std::string> camera_options_given;
+  /// Every option given on the command line, by its first long name ("--fov", "--next-event"
+  /// for --no-next-event too): the warnings about options a scene or method ignores read it.
+  std::vector<std::string> given;
 };
 
 inline bool ends_with_obj(const std::string& s) {
@@ -230,8 +231,8 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
       "--reference the RMSE and relMSE (mean over pixels and channels of (x - r)^2 / (r^2 + 1e-2)).\n");
   try {
     app.parse(argc, argv);
-    for (const char* name : {"--camera-position", "--camera-target", "--camera-up", "--fov"})
-      if (app.get_option_no_throw(name) != nullptr && app.count(name) > 0) o.camera_options_given.emplace_back(name);
+    for (const CLI::Option* option : app.get_options())
+      if (option->count() > 0) o.given.push_back(option->get_name());
   } catch (const CLI::CallForHelp&) {
     return {std::nullopt, 0, app.help()};
   } catch (const CLI::ParseError& e) {
@@ -247,13 +248,21 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
   return {std::move(o), 0, {}};
 }
 
+/// "a, b, c", for the warnings below.
+inline std::string listed(const std::vector<std::string>& names) {
+  std::string text;
+  for (const auto& name : names) text += (text.empty() ? "" : ", ") + name;
+  return text;
+}
+
 /// A warning where camera options were given for a built-in scene, which has its own camera.
 [[nodiscard]] inline std::optional<std::string> ignored_camera_options(const Options& o) {
-  if (o.camera_options_given.empty() || ends_with_obj(o.scene)) return std::nullopt;
-  std::string names;
-  for (const auto& name : o.camera_options_given) names += (names.empty() ? "" : ", ") + name;
-  return o.scene + " has its own camera: " + names + " (the camera of OBJ scenes) " +
-         (o.camera_options_given.size() == 1 ? "is" : "are") + " ignored";
+  if (ends_with_obj(o.scene)) return std::nullopt;
+  std::vector<std::string> camera;
+  for (const auto& name : o.given)
+    if (name == "--camera-position" || name == "--camera-target" || name == "--camera-up" || name == "--fov") camera.push_back(name);
+  if (camera.empty()) return std::nullopt;
+  return o.scene + " has a camera of its own and ignores " + listed(camera) + " (the camera of OBJ scenes)";
 }
 
 /// The library options the command line sets (the method's own defaults where it is silent).
@@ -274,6 +283,24 @@ inline MethodOptions method_options(const Options& o) {
   mo.transfer_cache_mib = o.transfer_cache_mib;
   mo.passes = o.passes;
   return mo;
+}
+
+/// A warning where options of other methods were given (--radius: kernel_check.hpp): what
+/// `method` reads, its ResolvedSettings and Method::reads_option say.
+[[nodiscard]] inline std::optional<std::string> ignored_method_options(const Options& o, const Method& method) {
+  const ResolvedSettings r = std::visit([&](const auto& m) { return std::decay_t<decltype(m)>::resolved(method_options(o)); }, method);
+  const auto reads = [&](const std::string& name) {
+    if (name == "--alpha") return r.alpha.has_value();
+    if (name == "--beta") return r.beta.has_value();
+    if (name == "--camera-continuation") return r.camera_continuation.has_value();
+    if (name == "--roulette-from") return r.roulette_from.has_value();
+    return std::visit([&](const auto& m) { return std::decay_t<decltype(m)>::reads_option(name); }, method);
+  };
+  std::vector<std::string> ignored;
+  for (const auto& name : o.given)
+    if (method_specific_option(name) && !reads(name)) ignored.push_back(name == "--next-event" ? "--[no-]next-event" : name);
+  if (ignored.empty()) return std::nullopt;
+  return o.method + " ignores " + listed(ignored) + " (options of other methods)";
 }
 
 /// The options that decide a render's image for a given iteration count, as "key=value" lines
