@@ -248,13 +248,6 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
   return {std::move(o), 0, {}};
 }
 
-/// "a, b, c", for the warnings below.
-inline std::string listed(const std::vector<std::string>& names) {
-  std::string text;
-  for (const auto& name : names) text += (text.empty() ? "" : ", ") + name;
-  return text;
-}
-
 /// A warning where camera options were given for a built-in scene, which has its own camera.
 [[nodiscard]] inline std::optional<std::string> ignored_camera_options(const Options& o) {
   if (ends_with_obj(o.scene)) return std::nullopt;
@@ -262,7 +255,7 @@ inline std::string listed(const std::vector<std::string>& names) {
   for (const auto& name : o.given)
     if (name == "--camera-position" || name == "--camera-target" || name == "--camera-up" || name == "--fov") camera.push_back(name);
   if (camera.empty()) return std::nullopt;
-  return o.scene + " has a camera of its own and ignores " + listed(camera) + " (the camera of OBJ scenes)";
+  return o.scene + " has a camera of its own and ignores " + joined(camera, ", ") + " (the camera of OBJ scenes)";
 }
 
 /// The library options the command line sets (the method's own defaults where it is silent).
@@ -300,7 +293,7 @@ inline MethodOptions method_options(const Options& o) {
   for (const auto& name : o.given)
     if (method_specific_option(name) && !reads(name)) ignored.push_back(name == "--next-event" ? "--[no-]next-event" : name);
   if (ignored.empty()) return std::nullopt;
-  return o.method + " ignores " + listed(ignored) + " (options of other methods)";
+  return o.method + " ignores " + joined(ignored, ", ") + " (options of other methods)";
 }
 
 /// The options that decide a render's image for a given iteration count, as "key=value" lines
