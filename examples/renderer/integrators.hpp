@@ -195,9 +195,9 @@ class MethodRun {
 
   explicit MethodRun(Library method) : method_(std::move(method)) {}
 
-  /// Whether the method reads the command line's `option` among those of segment filtering
-  /// (method_specific_option); FilteringMethod says which it reads.
-  [[nodiscard]] static bool reads_option(std::string_view) noexcept { return false; }
+  /// Segment filtering's mode, which decides the filtering options the method reads
+  /// (method_specific_options); none for the other methods.
+  static constexpr std::optional<segpath::FilteringMode> filtering_mode{};
 
   /// Renders the next iteration of `scene` (the same scene at every call: the first starts the
   /// render at its sensor's size), adds it to the sum and adds rays, paths and drops to `stats`;
@@ -420,13 +420,7 @@ class FilteringMethod : public MethodRun<segpath::SegmentFiltering<ThreadCountin
     return segpath::filtering::max_passes(scene, filtering_options(o));
   }
 
-  /// The options of segment filtering this mode reads: next-event segments come from camera
-  /// technique points (not PhF's), bridges and the chain weighting are BDPF's.
-  [[nodiscard]] static bool reads_option(std::string_view option) noexcept {
-    return option == "--support" || option == "--transfer-cache" || option == "--passes" ||
-           (option == "--next-event" && Mode != segpath::FilteringMode::phf) ||
-           ((option == "--bridges" || option == "--weighting") && Mode == segpath::FilteringMode::bdpf);
-  }
+  static constexpr std::optional<segpath::FilteringMode> filtering_mode = Mode;
 
   /// MVF draws no light paths: no beta. No Russian roulette option.
   [[nodiscard]] static ResolvedSettings resolved(const MethodOptions& o) {
@@ -504,15 +498,33 @@ inline std::optional<std::string> unsampled_family(std::string_view method, cons
   return std::nullopt;
 }
 
-/// The options that only some methods read (--radius aside: kernel_check.hpp): alpha, beta,
-/// the camera roulette and the Russian roulette (ResolvedSettings), and segment filtering's
-/// (Method::reads_option).
-[[nodiscard]] inline bool method_specific_option(std::string_view name) noexcept {
-  for (const std::string_view option : {"--alpha", "--beta", "--camera-continuation", "--roulette-from", "--support", "--bridges",
-                                        "--next-event", "--weighting", "--transfer-cache", "--passes"})
-    if (name == option) return true;
-  return false;
-}
+/// An option that only some methods read (--radius aside: kernel_check.hpp), and which read it:
+/// `read_by` answers from the settings a method resolves (ResolvedSettings) and its filtering
+/// mode (none: not segment filtering).
+struct MethodSpecificOption {
+  std::string_view name;
+  bool (*read_by)(const ResolvedSettings&, std::optional<segpath::FilteringMode>);
+};
+
+/// Every option that only some methods read: a new one is one line here.
+inline constexpr MethodSpecificOption method_specific_options[] = {
+    {"--alpha", [](const ResolvedSettings& r, std::optional<segpath::FilteringMode>) { return r.alpha.has_value(); }},
+    {"--beta", [](const ResolvedSettings& r, std::optional<segpath::FilteringMode>) { return r.beta.has_value(); }},
+    {"--camera-continuation",
+     [](const ResolvedSettings& r, std::optional<segpath::FilteringMode>) { return r.camera_continuation.has_value(); }},
+    {"--roulette-from", [](const ResolvedSettings& r, std::optional<segpath::FilteringMode>) { return r.roulette_from.has_value(); }},
+    {"--support", [](const ResolvedSettings&, std::optional<segpath::FilteringMode> m) { return m.has_value(); }},
+    {"--transfer-cache", [](const ResolvedSettings&, std::optional<segpath::FilteringMode> m) { return m.has_value(); }},
+    {"--passes", [](const ResolvedSettings&, std::optional<segpath::FilteringMode> m) { return m.has_value(); }},
+    // Next-event segments start at camera technique points, which PhF has none of.
+    {"--next-event",
+     [](const ResolvedSettings&, std::optional<segpath::FilteringMode> m) { return m && *m != segpath::FilteringMode::phf; }},
+    // Bridges and the chain weighting are BDPF's.
+    {"--bridges",
+     [](const ResolvedSettings&, std::optional<segpath::FilteringMode> m) { return m == segpath::FilteringMode::bdpf; }},
+    {"--weighting",
+     [](const ResolvedSettings&, std::optional<segpath::FilteringMode> m) { return m == segpath::FilteringMode::bdpf; }},
+};
 
 /// Every method the renderer offers: adding one is one line here.
 using Method = std::variant<PtMethod, LtMethod, VcmMethod<segpath::VcmMode::bdpt>, VcmMethod<segpath::VcmMode::ppm>,

@@ -278,20 +278,16 @@ inline MethodOptions method_options(const Options& o) {
   return mo;
 }
 
-/// A warning where options of other methods were given (--radius: kernel_check.hpp): what
-/// `method` reads, its ResolvedSettings and Method::reads_option say.
+/// A warning where options of other methods were given (--radius: kernel_check.hpp): those of
+/// method_specific_options that `method` does not read.
 [[nodiscard]] inline std::optional<std::string> ignored_method_options(const Options& o, const Method& method) {
-  const ResolvedSettings r = std::visit([&](const auto& m) { return std::decay_t<decltype(m)>::resolved(method_options(o)); }, method);
-  const auto reads = [&](const std::string& name) {
-    if (name == "--alpha") return r.alpha.has_value();
-    if (name == "--beta") return r.beta.has_value();
-    if (name == "--camera-continuation") return r.camera_continuation.has_value();
-    if (name == "--roulette-from") return r.roulette_from.has_value();
-    return std::visit([&](const auto& m) { return std::decay_t<decltype(m)>::reads_option(name); }, method);
-  };
+  const ResolvedSettings settings = resolved_settings(o.method, method_options(o)).value_or(ResolvedSettings{});
+  const auto mode = std::visit([](const auto& m) { return std::decay_t<decltype(m)>::filtering_mode; }, method);
   std::vector<std::string> ignored;
   for (const auto& name : o.given)
-    if (method_specific_option(name) && !reads(name)) ignored.push_back(name == "--next-event" ? "--[no-]next-event" : name);
+    for (const MethodSpecificOption& option : method_specific_options)
+      if (name == option.name && !option.read_by(settings, mode))
+        ignored.push_back(name == "--next-event" ? "--[no-]next-event" : name);
   if (ignored.empty()) return std::nullopt;
   return o.method + " ignores " + joined(ignored, ", ") + " (options of other methods)";
 }
