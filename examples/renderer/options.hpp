@@ -23,6 +23,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdint>
+#include <filesystem>
 #include <limits>
 #include <optional>
 #include <stdexcept>
@@ -256,6 +257,26 @@ inline CommandLine parse_command_line(int argc, const char* const* argv) {
     if (name == "--camera-position" || name == "--camera-target" || name == "--camera-up" || name == "--fov") camera.push_back(name);
   if (camera.empty()) return std::nullopt;
   return o.scene + " has a camera of its own and ignores " + joined(camera, ", ") + " (the camera of OBJ scenes)";
+}
+
+/// The scene --scene names, at the image size, with the OBJ camera options.
+inline RenderScene load_scene(const Options& o) {
+  for (int box = 0; box < 4; ++box)
+    if (o.scene == "cornell" + std::to_string(box)) return make_cornell(box, o.width, o.height);
+  if (ends_with_obj(o.scene)) {
+#if SEGPATH_RENDER_HAS_OBJ
+    if (!std::filesystem::is_regular_file(o.scene)) throw std::runtime_error("--scene " + o.scene + ": no such file");
+    ObjCamera camera;
+    camera.position = parse_vec3(o.camera_position);
+    camera.target = parse_vec3(o.camera_target);
+    camera.up = parse_vec3(o.camera_up);
+    camera.fov_y_degrees = o.fov;
+    return load_obj_scene(o.scene, camera, o.width, o.height);
+#else
+    throw std::runtime_error("--scene " + o.scene + ": this build has no OBJ loader (examples/renderer/obj_scene.hpp)");
+#endif
+  }
+  throw std::runtime_error("--scene " + o.scene + ": unknown scene (use cornell0, cornell1, cornell2, cornell3 or a .obj file)");
 }
 
 /// The library options the command line sets (the method's own defaults where it is silent).
