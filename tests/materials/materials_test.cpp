@@ -502,3 +502,26 @@ TEMPLATE_TEST_CASE("Material constructors reject bad parameters", "[materials]",
   CHECK_NOTHROW(Phong<T>(T(0), T(0)));
   CHECK_NOTHROW(Glossy<T>(T(0), T(0), T(1)));
 }
+
+// A negative channel rendered negative pixels (a Mirror of -1: PT's least pixel -1.19), and a
+// Glossy with a negative diffuse channel passed while the channels' average was >= 0.
+TEMPLATE_TEST_CASE("Materials reject a negative channel, naming it", "[materials]", float, double) {
+  using T = TestType;
+  using C = Rgb<T>;
+  const C negative_green(T(0.5), T(-0.25), T(0.5));
+  CHECK_THROWS_WITH(Phong<C>(negative_green, T(2)), Catch::Contains("Phong") && Catch::Contains("-0.25"));
+  CHECK_THROWS_WITH(Glossy<C>(C(T(-1), T(1), T(1)), C(T(0.2)), T(2)), Catch::Contains("diffuse") && Catch::Contains("-1"));
+  CHECK_THROWS_WITH(Glossy<C>(C(T(0.2)), negative_green, T(2)), Catch::Contains("-0.25"));
+  CHECK_THROWS_WITH(Mirror<C>(negative_green), Catch::Contains("Mirror") && Catch::Contains("-0.25"));
+  CHECK_THROWS_WITH(Mirror<T>(T(-1)), Catch::Contains("Mirror"));
+  // A Lambertian is an aggregate: the set checks its albedo, naming the material.
+  CHECK_THROWS_WITH(MaterialSet<C>({Lambertian<C>{C(T(0.5))}, Lambertian<C>{negative_green}}),
+                    Catch::Contains("material 1 (Lambertian)") && Catch::Contains("-0.25"));
+  MaterialSet<C> set;
+  CHECK(set.add(Lambertian<C>{C(T(0.5))}) == 0);
+  CHECK_THROWS_WITH(set.add(Lambertian<C>{C(std::numeric_limits<T>::quiet_NaN())}),
+                    Catch::Contains("material 1 (Lambertian)") && Catch::Contains("non-finite"));
+  CHECK(set.size() == 1);
+  CHECK_NOTHROW(Glossy<C>(C(T(0)), C(T(0.5), T(0), T(1)), T(2)));
+  CHECK_NOTHROW(Mirror<C>(C(T(0))));
+}

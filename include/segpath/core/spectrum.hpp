@@ -84,4 +84,10 @@ concept Spectrum = std::regular<S> && Real<spectrum_scalar_t<S>> &&
       { is_black(a) } -> std::convertible_to<bool>;
     };
 
+/// The least channel of `s`: what a check that a coefficient is >= 0 in every channel reads.
+template <Spectrum S>
+[[nodiscard]] constexpr spectrum_scalar_t<S> min_component(const S& s) noexcept {
+  return -max_component(s * spectrum_scalar_t<S>(-1));
+}
+
 }  // namespace segpath

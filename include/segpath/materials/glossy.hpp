@@ -24,19 +24,17 @@ class Glossy {
  public:
   using Scalar = spectrum_scalar_t<S>;
 
-  /// Throws std::invalid_argument for non-finite coefficients, a bad exponent (see Phong)
-  /// or negative albedo weights.
+  /// Throws std::invalid_argument for a diffuse albedo or Phong coefficient that is not
+  /// finite and >= 0 in every channel, or a bad exponent (see Phong).
   Glossy(S diffuse, S phong_coefficient, Scalar exponent)
       : diffuse_{diffuse}, phong_(phong_coefficient, exponent) {
     if (!is_finite(diffuse))
       throw std::invalid_argument("segpath::Glossy: the diffuse albedo must be finite");
+    if (min_component(diffuse) < Scalar(0))
+      throw std::invalid_argument("segpath::Glossy: the diffuse albedo must be >= 0 in every channel, got " +
+                                  format_number(double(min_component(diffuse))));
     const Scalar w_d = average(diffuse);
     const Scalar w_p = average(phong_coefficient);
-    if (w_d < Scalar(0) || w_p < Scalar(0))
-      throw std::invalid_argument(
-          "segpath::Glossy: the lobes' albedo weights (averages of the coefficients) must be "
-          ">= 0, got " +
-          format_number(double(w_d)) + " and " + format_number(double(w_p)));
     const Scalar total = w_d + w_p;
     diffuse_probability_ = total > Scalar(0) ? w_d / total : Scalar(0);
     phong_probability_ = total > Scalar(0) ? w_p / total : Scalar(0);

@@ -4,10 +4,12 @@
 
 #include <cstdint>
 #include <stdexcept>
+#include <string>
 #include <utility>
 #include <variant>
 #include <vector>
 
+#include "segpath/core/format.hpp"
 #include "segpath/materials/dielectric.hpp"
 #include "segpath/materials/glossy.hpp"
 #include "segpath/materials/lambertian.hpp"
@@ -30,15 +32,19 @@ class MaterialSet {
   using Scalar = spectrum_scalar_t<S>;
 
   MaterialSet() = default;
+  /// Throws std::invalid_argument for too many materials or a Lambertian albedo that is not
+  /// finite and >= 0 in every channel (the other materials check theirs when constructed).
   explicit MaterialSet(std::vector<Material<S>> materials) : materials_(std::move(materials)) {
     if (materials_.size() >= invalid_id)
       throw std::invalid_argument("segpath::MaterialSet: too many materials");
+    for (std::size_t id = 0; id < materials_.size(); ++id) check(materials_[id], id);
   }
 
-  /// Appends a material and returns its id.
+  /// Appends a material and returns its id; throws as the constructor does.
   std::uint32_t add(Material<S> material) {
     if (materials_.size() + 1 >= invalid_id)
       throw std::invalid_argument("segpath::MaterialSet: too many materials");
+    check(material, materials_.size());
     materials_.push_back(std::move(material));
     return static_cast<std::uint32_t>(materials_.size() - 1);
   }
@@ -94,6 +100,16 @@ class MaterialSet {
   }
 
  private:
+  /// A Lambertian is an aggregate without a constructor of its own: its albedo is checked here.
+  static void check(const Material<S>& material, std::size_t id) {
+    const auto* lambertian = std::get_if<Lambertian<S>>(&material);
+    if (lambertian && !(is_finite(lambertian->albedo) && min_component(lambertian->albedo) >= Scalar(0)))
+      throw std::invalid_argument("segpath::MaterialSet: material " + std::to_string(id) +
+                                  " (Lambertian): the albedo must be finite and >= 0 in every channel, got " +
+                                  (is_finite(lambertian->albedo) ? format_number(double(min_component(lambertian->albedo)))
+                                                                 : std::string("a non-finite value")));
+  }
+
   /// f(alternative) through a switch (std::get_if never fails on the matching index).
   template <class F>
   static decltype(auto) dispatch(const Material<S>& m, F&& f) noexcept {

@@ -4,8 +4,10 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <string>
 
 #include "segpath/concepts/bsdf.hpp"
+#include "segpath/core/format.hpp"
 #include "segpath/core/in_place_optional.hpp"
 #include "segpath/materials/scattering.hpp"
 
@@ -24,10 +26,13 @@ class Mirror {
  public:
   using Scalar = spectrum_scalar_t<S>;
 
-  /// Throws std::invalid_argument for a non-finite reflectance.
+  /// Throws std::invalid_argument for a reflectance that is not finite and >= 0 in every channel.
   explicit Mirror(S reflectance = S(Scalar(1))) : reflectance_(reflectance) {
     if (!is_finite(reflectance))
       throw std::invalid_argument("segpath::Mirror: the reflectance must be finite");
+    if (min_component(reflectance) < Scalar(0))
+      throw std::invalid_argument("segpath::Mirror: the reflectance must be >= 0 in every channel, got " +
+                                  format_number(double(min_component(reflectance))));
   }
 
   [[nodiscard]] const S& reflectance() const noexcept { return reflectance_; }

@@ -38,10 +38,14 @@ class Phong {
   using Scalar = spectrum_scalar_t<S>;
 
   /// `coefficient` rho (0.7 on the Cornell floor) and exponent n >= 0 (90 there).
-  /// Throws std::invalid_argument for a non-finite coefficient or exponent, or n < 0.
+  /// Throws std::invalid_argument for a coefficient that is not finite and >= 0 in every
+  /// channel, or an exponent that is not finite and >= 0.
   explicit Phong(S coefficient, Scalar exponent) : coefficient_(coefficient), exponent_(exponent) {
     if (!is_finite(coefficient))
       throw std::invalid_argument("segpath::Phong: the coefficient must be finite");
+    if (min_component(coefficient) < Scalar(0))
+      throw std::invalid_argument("segpath::Phong: the coefficient must be >= 0 in every channel, got " +
+                                  format_number(double(min_component(coefficient))));
     if (!std::isfinite(exponent) || exponent < Scalar(0))
       throw std::invalid_argument("segpath::Phong: the exponent must be finite and >= 0, got " +
                                   format_number(double(exponent)));
