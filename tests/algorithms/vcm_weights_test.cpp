@@ -286,6 +286,16 @@ TEST_CASE("VCM refuses a merge radius whose MIS factors leave the scalar type's 
   CHECK(message_at(VcmMode::bpm, 1e-10f).empty());
   CHECK(message_at(VcmMode::ppm, 1e-10f).empty());
   CHECK(message_at(VcmMode::bdpt, 1e-10f).empty());  // no merging: the radius is ignored
+  // BPM and PPM: the merge's normalisation 1 / (pi r^2 N) within the same factor. r^2 of 1e-20
+  // is denormal in float and of 1e20 infinite; both rendered a black image with no drop.
+  for (const VcmMode mode : {VcmMode::bpm, VcmMode::ppm}) {
+    const std::string tiny = message_at(mode, 1e-20f), huge = message_at(mode, 1e20f);
+    CHECK(tiny.find("merge radius 1e-20 with 1024 light paths puts the merge's normalisation") != std::string::npos);
+    CHECK(tiny.find("use a radius from 9.56e-15 to 3.25e+10") != std::string::npos);
+    CHECK(huge.find("merge radius 1e+20") != std::string::npos);
+    CHECK(message_at(mode, 1e-14f).empty());
+    CHECK(message_at(mode, 1e10f).empty());
+  }
 }
 
 TEST_CASE("the kernel radius follows ProgressiveRadius from iteration 0", "[algorithms][vcm]") {

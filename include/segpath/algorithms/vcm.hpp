@@ -151,18 +151,24 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
   /// Throws std::invalid_argument where VCM's merge radius and light-path count give an MIS
   /// factor above max_mis_factor. Beyond it the partial sums overflow and whole techniques'
   /// weights fall to 0 (in float at 32 x 32, radius 1e-10 on box 1 rendered 2 % dark, 1e-19 26 %),
-  /// so the radius is refused instead, with the range that works. BPM and PPM merge only:
-  /// their weights do not depend on eta.
+  /// so the radius is refused instead, with the range that works. BPM and PPM merge only: their
+  /// weights do not depend on eta = pi r^2 N, but the merge's normalisation 1 / eta does, and is
+  /// refused beyond the same factor (r^2 underflowed to 0 or overflowed: a black image).
   void check_mis_range(const Iteration& it) const {
-    if (!(it.connect && it.merge) || (it.vm_factor <= max_mis_factor && it.vc_factor <= max_mis_factor)) return;
+    if (!it.merge) return;
+    const bool weights = it.connect;  // VCM: heuristic(eta) and heuristic(1 / eta)
+    if (weights ? it.vm_factor <= max_mis_factor && it.vc_factor <= max_mis_factor
+                : it.merge_normalization >= T(1) / max_mis_factor && it.merge_normalization <= max_mis_factor)
+      return;
     // heuristic(eta) <= M and heuristic(1 / eta) <= M: eta in [1 / m, m], m = M or sqrt(M).
-    const double m = options_.heuristic == MisHeuristic::power ? std::sqrt(double(max_mis_factor)) : double(max_mis_factor);
+    const double m = weights && options_.heuristic == MisHeuristic::power ? std::sqrt(double(max_mis_factor)) : double(max_mis_factor);
     const double per_radius2 = std::numbers::pi * double(it.light_paths);
     const auto number = [](double x) { return format_number(x, 3); };
     throw std::invalid_argument("segpath::VertexConnectionMerging: merge radius " + number(double(it.radius)) + " with " +
-                                std::to_string(std::uint64_t(it.light_paths)) + " light paths puts VCM's MIS weights out of the scalar type's "
-                                "range; use a radius from " + number(std::sqrt(1 / (m * per_radius2))) + " to " +
-                                number(std::sqrt(m / per_radius2)));
+                                std::to_string(std::uint64_t(it.light_paths)) + " light paths puts " +
+                                (weights ? "VCM's MIS weights" : "the merge's normalisation 1 / (pi r^2 N)") +
+                                " out of the scalar type's range; use a radius from " + number(std::sqrt(1 / (m * per_radius2))) +
+                                " to " + number(std::sqrt(m / per_radius2)));
   }
 
   /// Adds one iteration's estimate to `image` (image.pixel_count() == sensor pixel count).
