@@ -217,6 +217,11 @@ TEMPLATE_TEST_CASE("disk kernel rejects bad parameters", "[kernels]", float, dou
   CHECK_THROWS_AS(DiskKernel<T>(T(1), T(1.001)), std::invalid_argument);
   CHECK_THROWS_AS(DiskKernel<T>(T(1), T(-1.001)), std::invalid_argument);
   CHECK_THROWS_AS(DiskKernel<T>(T(1), nan), std::invalid_argument);
+  // r^2 below the least normal number or above the largest: eval was 0 everywhere and sample
+  // nullopt (1 / (pi r^2) infinite or 0).
+  CHECK_THROWS_WITH(DiskKernel<T>(std::sqrt(std::numeric_limits<T>::min()) * T(0.1)), Catch::Contains("1 / (pi r^2)"));
+  CHECK_THROWS_WITH(DiskKernel<T>(std::sqrt(std::numeric_limits<T>::max()) * T(10)), Catch::Contains("1 / (pi r^2)"));
+  CHECK_NOTHROW(DiskKernel<T>(std::sqrt(std::numeric_limits<T>::min()) * T(100)));
   try {
     DiskKernel<T> bad(T(-2));
     FAIL("DiskKernel accepted radius -2");

@@ -304,6 +304,19 @@ TEMPLATE_TEST_CASE("PinholeCamera rejects bad parameters", "[sensors]", float, d
   rejects([](auto& p) { p.up = glm::normalize(Vec3<T>(1, 0, 1)); });  // not orthogonal to right
   rejects([nan](auto& p) { p.position.x = nan; });
   rejects([nan](auto& p) { p.forward.y = nan; });
+  // So narrow that a pixel's area is 0 in T (an infinite inverse): every ray was dropped by
+  // sample_ray, a black image with nothing counted.
+  rejects([](auto& p) { p.fov_x_degrees = p.fov_y_degrees = std::numeric_limits<T>::min(); });
+  try {
+    PinholeCameraParameters<T> p = good;
+    p.fov_x_degrees = p.fov_y_degrees = std::numeric_limits<T>::min();
+    (void)PinholeCamera<T>(p);
+  } catch (const std::invalid_argument& e) {
+    CHECK_THAT(e.what(), Catch::Contains("too narrow for 4 x 3 pixels"));
+  }
+  PinholeCameraParameters<T> narrow = good;
+  narrow.fov_x_degrees = narrow.fov_y_degrees = T(1e-3);
+  CHECK_NOTHROW(PinholeCamera<T>(narrow));
   CHECK_NOTHROW(cornell_camera<T>(512, 512));
   CHECK_THROWS_AS(cornell_camera<T>(0, 512), std::invalid_argument);
 }

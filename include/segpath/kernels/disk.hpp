@@ -24,8 +24,10 @@ class DiskKernel {
   /// n_x' . n_y >= min_normal_cosine.
   explicit DiskKernel(T radius, T min_normal_cosine = T(0.5))
       : radius_(radius), min_normal_cosine_(min_normal_cosine) {
-    if (!(radius > T(0)) || !std::isfinite(radius))
-      throw std::invalid_argument("segpath::DiskKernel: radius must be finite and > 0, got " +
+    // 1 / (pi r^2) must be finite and > 0 as well: beyond, eval is 0 everywhere.
+    if (!(radius > T(0)) || !std::isfinite(radius) || !(T(1) / (pi<T> * radius * radius) > T(0)) ||
+        !std::isfinite(T(1) / (pi<T> * radius * radius)))
+      throw std::invalid_argument("segpath::DiskKernel: radius must be finite and > 0, and 1 / (pi r^2) finite and > 0, got " +
                                   format_number(double(radius)));
     if (!(min_normal_cosine >= T(-1) && min_normal_cosine <= T(1)))
       throw std::invalid_argument(

@@ -99,6 +99,12 @@ class PinholeCamera {
     inv_pixel_area_ =
         static_cast<T>(static_cast<double>(width_) * static_cast<double>(height_) /
                        (4.0 * static_cast<double>(tan_x_) * static_cast<double>(tan_y_)));
+    // A field of view so narrow that a pixel's area on the image plane is 0 in T: every ray's
+    // density would be infinite (a black image with nothing dropped).
+    if (!(tan_x_ > T(0) && tan_y_ > T(0)) || !std::isfinite(inv_pixel_area_))
+      throw std::invalid_argument("segpath::PinholeCamera: the field of view (" + format_number(double(p.fov_x_degrees)) + " x " +
+                                  format_number(double(p.fov_y_degrees)) + " degrees) is too narrow for " +
+                                  std::to_string(width_) + " x " + std::to_string(height_) + " pixels in this scalar type");
     forward_ = glm::normalize(forward_);
     right_ = glm::normalize(right_);
     up_ = glm::normalize(up_);
