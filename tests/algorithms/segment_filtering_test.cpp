@@ -70,6 +70,26 @@ TEST_CASE("segment filtering: bad options are rejected", "[algorithms]") {
   o = {};
   o.initial_cell_size = -1;
   CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
+  // A voxel whose kernel 1 / h^2 is 0 or infinite in the scalar type rendered black with
+  // nothing dropped.
+  o.initial_cell_size = 1e200;
+  CHECK_THROWS_WITH(SegmentFiltering<Scn>(o), Catch::Contains("voxel size 1e+200 puts the kernel 1 / h^2 out of"));
+  o.initial_cell_size = 1e-200;
+  CHECK_THROWS_WITH(SegmentFiltering<Scn>(o), Catch::Contains("1 / h^2"));
+  o.support = FilteringSupport::disk;
+  CHECK_THROWS_WITH(SegmentFiltering<Scn>(o), Catch::Contains("1 / h^2"));
+  o.initial_cell_size = 1e-100;
+  CHECK_NOTHROW(SegmentFiltering<Scn>(o));
+  // Enumerations cast from numbers out of their range rendered as some other choice.
+  o = {};
+  o.mode = FilteringMode(7);
+  CHECK_THROWS_WITH(SegmentFiltering<Scn>(o), Catch::Contains("out of its enumeration's range (7, 0, 0)"));
+  o = {};
+  o.support = FilteringSupport(2);
+  CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
+  o = {};
+  o.weighting = FilteringWeighting(2);
+  CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
   o = {};
   o.alpha = 1;
   CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
@@ -120,6 +140,13 @@ TEST_CASE("segment filtering: bad options are rejected", "[algorithms]") {
   o = {};
   o.light_continuation = 1;  // light paths would never end in a closed scene
   CHECK_THROWS_AS(SegmentFiltering<Scn>(o), std::invalid_argument);
+  // 0: light starts only. BDPF's camera side reaches the rest; PhF lost its indirect light
+  // without a word (a closed box's mean 0.035 instead of 0.061).
+  o.light_continuation = 0;
+  CHECK_NOTHROW(SegmentFiltering<Scn>(o));
+  o.mode = FilteringMode::phf;
+  CHECK_THROWS_WITH(SegmentFiltering<Scn>(o), Catch::Contains("phf with light continuation 0"));
+  o.mode = FilteringMode::bdpf;
   o.light_continuation = 0.5;
   CHECK(filtering::technique_set(o).light_continuation == 0.5);
   o.light_continuation = -1;  // automatic: light paths of max_length - 1 segments on average

@@ -238,6 +238,13 @@ TEST_CASE("VCM rejects bad options with clear messages", "[algorithms][vcm]") {
   o = {};
   o.max_length = 0;
   CHECK(message_of(o).find("max_length") != std::string::npos);
+  // A mode cast from a number out of range failed only at render time, naming the radius.
+  o = {};
+  o.mode = VcmMode(9);
+  CHECK(message_of(o).find("mode or heuristic out of its enumeration's range (9, ") != std::string::npos);
+  o = {};
+  o.heuristic = MisHeuristic(5);
+  CHECK(message_of(o).find("out of its enumeration's range") != std::string::npos);
   CHECK(message_of(VcmOptions{}).empty());
 
   const Sphere scene = make_sphere();

@@ -380,6 +380,10 @@ class VertexConnectionMerging : public VcmWeights<Scn> {
     const auto fail = [](const std::string& what) {
       throw std::invalid_argument("segpath::VertexConnectionMerging: " + what);
     };
+    // Enumerations cast from a number out of their range.
+    if (o.mode > VcmMode::vcm || o.heuristic > MisHeuristic::power)
+      fail("mode or heuristic out of its enumeration's range (" + std::to_string(int(o.mode)) + ", " +
+           std::to_string(int(o.heuristic)) + ")");
     if (o.max_length < 1) fail("max_length must be >= 1, got 0");
     if (!(o.initial_radius >= 0) || !std::isfinite(o.initial_radius) || !std::isfinite(T(o.initial_radius)) ||
         (o.initial_radius > 0 && !(T(o.initial_radius) > T(0))))

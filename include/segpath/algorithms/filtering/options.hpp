@@ -191,6 +191,11 @@ struct FilteringStats {
 /// Throws std::invalid_argument naming the first option out of range.
 template <Real T>
 void validate(const FilteringOptions<T>& options) {
+  // Enumerations cast from a number out of their range would render as some other choice.
+  if (options.mode > FilteringMode::bdpf || options.support > FilteringSupport::disk || options.weighting > FilteringWeighting::paper)
+    throw std::invalid_argument("segpath::SegmentFiltering: mode, support or weighting out of its enumeration's range (" +
+                                std::to_string(int(options.mode)) + ", " + std::to_string(int(options.support)) + ", " +
+                                std::to_string(int(options.weighting)) + ")");
   if (options.max_length < 2)
     throw std::invalid_argument("segpath::SegmentFiltering: max_length must be >= 2 (k >= 1 propagation iterations), got " +
                                 std::to_string(options.max_length));
@@ -200,19 +205,29 @@ void validate(const FilteringOptions<T>& options) {
   if (!(options.initial_cell_size >= T(0)) || !std::isfinite(options.initial_cell_size))
     throw std::invalid_argument("segpath::SegmentFiltering: voxel size must be > 0 (or 0 for automatic), got " +
                                 format_number(double(options.initial_cell_size)));
+  // The kernel is about 1 / h^2 (a voxel's plane area, a disk's pi r^2 = h^2): beyond T's range
+  // it is 0 or infinite, and every pixel black with nothing dropped.
+  if (const T h = options.initial_cell_size; h > T(0) && !(T(1) / (h * h) > T(0) && std::isfinite(T(1) / (h * h))))
+    throw std::invalid_argument("segpath::SegmentFiltering: voxel size " + format_number(double(h)) +
+                                " puts the kernel 1 / h^2 out of the scalar type's range");
   if (options.bridges && options.mode != FilteringMode::bdpf)
     throw std::invalid_argument(std::string("segpath::SegmentFiltering: bridge segments join camera and light paths, "
                                             "so they need mode bdpf, got ") + to_string(options.mode));
   if (!(options.light_continuation < T(1)) || std::isnan(options.light_continuation))
     throw std::invalid_argument("segpath::SegmentFiltering: the light continuation probability must be < 1 (negative: automatic), got " +
-                                std::to_string(options.light_continuation));
+                                format_number(double(options.light_continuation)));
+  // 0 draws light starts only: BDPF's camera side still reaches the rest, PhF nothing beyond
+  // the light's first bounce (its indirect light would be missing without a word).
+  if (options.mode == FilteringMode::phf && options.light_continuation == T(0))
+    throw std::invalid_argument("segpath::SegmentFiltering: phf with light continuation 0 samples no light beyond a light path's "
+                                "first segment; use a value in (0, 1) (negative: automatic)");
   if (!(options.camera_continuation > T(0) && options.camera_continuation <= T(1)) && !(options.camera_continuation < T(0)))
     throw std::invalid_argument("segpath::SegmentFiltering: the camera continuation probability must lie in (0, 1] (negative: automatic), got " +
-                                std::to_string(options.camera_continuation));
+                                format_number(double(options.camera_continuation)));
   if (options.pixel_passes < 1)
     throw std::invalid_argument("segpath::SegmentFiltering: pixel_passes must be >= 1, got 0");
   if (!(options.alpha > T(0) && options.alpha < T(1)))
-    throw std::invalid_argument("segpath::SegmentFiltering: alpha must lie in (0, 1), got " + std::to_string(options.alpha));
+    throw std::invalid_argument("segpath::SegmentFiltering: alpha must lie in (0, 1), got " + format_number(double(options.alpha)));
 }
 
 /// Whether chains are weighted path-conditioned (only BDPF has both sides).
