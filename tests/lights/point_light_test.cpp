@@ -89,6 +89,9 @@ TEMPLATE_TEST_CASE("PointLight rejects bad parameters", "[lights]", float, doubl
   CHECK_THROWS_AS(PointLight<Rgb<T>>(Vec3<T>(0, 0, 0), Rgb<T>(1, T(-0.5), 1)),
                   std::invalid_argument);
   CHECK_THROWS_AS(PointLight<Rgb<T>>(Vec3<T>(0, 0, 0), Rgb<T>(1, 1, nan)), std::invalid_argument);
+  // The message names the least channel (it named the largest: "got max 1.000000").
+  CHECK_THROWS_WITH(PointLight<Rgb<T>>(Vec3<T>(0, 0, 0), Rgb<T>(1, T(-1e-9), 1)), Catch::Contains("got min -1e-09"));
+  CHECK_THROWS_WITH(PointLight<Rgb<T>>(Vec3<T>(0, 0, 0), Rgb<T>(1, 1, nan)), Catch::Contains("got a non-finite value"));
   CHECK_NOTHROW(PointLight<T>(Vec3<T>(0, 0, 0), T(0)));
   CHECK_NOTHROW(PointLight<Rgb<T>>(Vec3<T>(0, 0, 0), Rgb<T>(0, 1, 2)));
 }

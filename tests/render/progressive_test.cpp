@@ -168,6 +168,12 @@ TEST_CASE("the render protocol drops and counts a non-finite pixel, and checks t
   CHECK(render.pixel(0) == Approx((0.0 + 2.0) / 3));
   CHECK(render.pixel(5) == Approx((0.0 + 1.0 + 2.0) / 3));
   CHECK_THROWS_AS(ProgressiveRender(scene, Faulty{}, 6, 5), std::invalid_argument);
+  // As many pixels in other rows: the image came back reshaped without a word.
+  CHECK_THROWS_WITH(ProgressiveRender(scene, Faulty{}, 36, 1), Catch::Contains("the sensor is 6 pixels wide"));
+  CHECK_THROWS_WITH(ProgressiveRender(scene, Faulty{}, 4, 9), Catch::Contains("the sensor is 6 pixels wide"));
+  // Pixel indices are 32-bit: refused before anything is allocated (pixel_count() was cut to 0).
+  CHECK_THROWS_WITH(Framebuffer<float>(65536, 65536), Catch::Contains("65536 x 65536 pixels are more than 32-bit"));
+  CHECK_THROWS_AS(Framebuffer<float>(0, 4), std::invalid_argument);
 }
 
 TEST_CASE("iterations rendered apart and added in index order, or a resumed render, equal iterate() bit for bit",

@@ -12,6 +12,8 @@
 #include <span>
 #include <stdexcept>
 #include <algorithm>
+#include <limits>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -20,10 +22,10 @@ namespace segpath {
 template <Spectrum S>
 class Framebuffer {
  public:
+  /// Throws std::invalid_argument for a side of 0, or 2^32 pixels or more (pixel indices are
+  /// 32-bit), before allocating anything.
   Framebuffer(std::uint32_t width, std::uint32_t height)
-      : width_(width), height_(height), pixels_(std::size_t(width) * std::size_t(height), S(spectrum_scalar_t<S>(0))) {
-    if (width == 0 || height == 0) throw std::invalid_argument("segpath::Framebuffer: width and height must be >= 1");
-  }
+      : width_(width), height_(height), pixels_(checked_pixel_count(width, height), S(spectrum_scalar_t<S>(0))) {}
   [[nodiscard]] std::uint32_t width() const noexcept { return width_; }
   [[nodiscard]] std::uint32_t height() const noexcept { return height_; }
   [[nodiscard]] std::uint32_t pixel_count() const noexcept { return std::uint32_t(pixels_.size()); }
@@ -40,6 +42,14 @@ class Framebuffer {
   }
 
  private:
+  static std::size_t checked_pixel_count(std::uint32_t width, std::uint32_t height) {
+    if (width == 0 || height == 0) throw std::invalid_argument("segpath::Framebuffer: width and height must be >= 1");
+    if (std::uint64_t(width) * height > std::numeric_limits<std::uint32_t>::max())
+      throw std::invalid_argument("segpath::Framebuffer: " + std::to_string(width) + " x " + std::to_string(height) +
+                                  " pixels are more than 32-bit pixel indices address");
+    return std::size_t(width) * height;
+  }
+
   std::uint32_t width_, height_;
   std::vector<S> pixels_;
 };

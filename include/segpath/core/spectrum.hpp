@@ -2,10 +2,12 @@
 // scenes use them). Estimators use only the operations the Spectrum concept names.
 #pragma once
 
+#include "segpath/core/format.hpp"
 #include "segpath/core/vec.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
 namespace segpath {
 
@@ -88,6 +90,13 @@ concept Spectrum = std::regular<S> && Real<spectrum_scalar_t<S>> &&
 template <Spectrum S>
 [[nodiscard]] constexpr spectrum_scalar_t<S> min_component(const S& s) noexcept {
   return -max_component(s * spectrum_scalar_t<S>(-1));
+}
+
+/// What a message about `s`, which must be finite and >= 0 in every channel, says it got:
+/// "min -0.25" (the least channel) or "a non-finite value".
+template <Spectrum S>
+[[nodiscard]] std::string least_channel_text(const S& s) {
+  return is_finite(s) ? "min " + format_number(double(min_component(s))) : std::string("a non-finite value");
 }
 
 }  // namespace segpath

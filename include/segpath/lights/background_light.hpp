@@ -51,8 +51,8 @@ class BackgroundLight {
                                                     "segpath::BackgroundLight")) {
     if (!is_finite(radiance) || max_component(radiance * Scalar(-1)) > Scalar(0))
       throw std::invalid_argument(
-          "segpath::BackgroundLight: radiance must be finite and >= 0 in every channel, got max " +
-          std::to_string(max_component(radiance)));
+          "segpath::BackgroundLight: radiance must be finite and >= 0 in every channel, got " +
+          least_channel_text(radiance));
   }
 
   [[nodiscard]] const S& emitted_radiance() const noexcept { return radiance_; }

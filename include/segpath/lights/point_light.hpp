@@ -30,8 +30,8 @@ class PointLight {
     // max_component(-I) <= 0 says every channel of I is >= 0 with the Spectrum operations only.
     if (!is_finite(intensity) || max_component(intensity * Scalar(-1)) > Scalar(0))
       throw std::invalid_argument(
-          "segpath::PointLight: intensity must be finite and >= 0 in every channel, got max " +
-          std::to_string(max_component(intensity)));
+          "segpath::PointLight: intensity must be finite and >= 0 in every channel, got " +
+          least_channel_text(intensity));
   }
 
   [[nodiscard]] const Vec3<Scalar>& position() const noexcept { return position_; }

@@ -157,8 +157,8 @@ class TriangleLights {
   static const S& checked(const S& radiance, const std::string& which) {
     if (!is_finite(radiance) || max_component(radiance * Scalar(-1)) > Scalar(0))
       throw std::invalid_argument("segpath::TriangleLights: " + which +
-                                  "radiance must be finite and >= 0 in every channel, got max " +
-                                  format_number(double(max_component(radiance))));
+                                  "radiance must be finite and >= 0 in every channel, got " +
+                                  least_channel_text(radiance));
     return radiance;
   }
 

@@ -106,8 +106,7 @@ class MaterialSet {
     if (lambertian && !(is_finite(lambertian->albedo) && min_component(lambertian->albedo) >= Scalar(0)))
       throw std::invalid_argument("segpath::MaterialSet: material " + std::to_string(id) +
                                   " (Lambertian): the albedo must be finite and >= 0 in every channel, got " +
-                                  (is_finite(lambertian->albedo) ? format_number(double(min_component(lambertian->albedo)))
-                                                                 : std::string("a non-finite value")));
+                                  least_channel_text(lambertian->albedo));
   }
 
   /// f(alternative) through a switch (std::get_if never fails on the matching index).

@@ -67,6 +67,11 @@ class ProgressiveRender {
     if (std::uint64_t(width) * height != scene.sensor().pixel_count())
       throw std::invalid_argument("segpath::ProgressiveRender: " + std::to_string(width) + " x " + std::to_string(height) +
                                   " pixels, but the sensor has " + std::to_string(scene.sensor().pixel_count()));
+    // A sensor with rows (a camera) must have the same ones: 144 x 1 for 12 x 12 reshaped the image.
+    if constexpr (requires { scene.sensor().width(); })
+      if (scene.sensor().width() != width)
+        throw std::invalid_argument("segpath::ProgressiveRender: " + std::to_string(width) + " x " + std::to_string(height) +
+                                    " pixels, but the sensor is " + std::to_string(scene.sensor().width()) + " pixels wide");
     if constexpr (KernelMethod<M, Scn>) schedule_ = method_.kernel_schedule(scene);
   }
 
