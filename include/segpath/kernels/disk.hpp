@@ -25,15 +25,15 @@ class DiskKernel {
   explicit DiskKernel(T radius, T min_normal_cosine = T(0.5))
       : radius_(radius), min_normal_cosine_(min_normal_cosine) {
     // 1 / (pi r^2) must be finite and > 0 as well: beyond, eval is 0 everywhere.
-    if (!(radius > T(0)) || !std::isfinite(radius) || !(T(1) / (pi<T> * radius * radius) > T(0)) ||
-        !std::isfinite(T(1) / (pi<T> * radius * radius)))
+    const T inv_area = T(1) / (pi<T> * radius * radius);
+    if (!(radius > T(0)) || !std::isfinite(radius) || !(inv_area > T(0)) || !std::isfinite(inv_area))
       throw std::invalid_argument("segpath::DiskKernel: radius must be finite and > 0, and 1 / (pi r^2) finite and > 0, got " +
                                   format_number(double(radius)));
     if (!(min_normal_cosine >= T(-1) && min_normal_cosine <= T(1)))
       throw std::invalid_argument(
           "segpath::DiskKernel: min_normal_cosine must lie in [-1, 1], got " +
           format_number(double(min_normal_cosine)));
-    inv_area_ = T(1) / (pi<T> * radius * radius);
+    inv_area_ = inv_area;
   }
 
   [[nodiscard]] T radius() const noexcept { return radius_; }
